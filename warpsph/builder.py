@@ -1,0 +1,222 @@
+"""Scene → (Model, State): fills bodies with real particles and virtual stress points, lays out
+boundary planes and their mirror ghosts, and sets initial fields.
+
+Ghost layout is decided here, once, from the initial positions (small-deformation boundaries):
+for each plane in turn, every particle (owned or ghost of an earlier plane) within the support
+radius plus a margin is mirrored across it, so corners get ghosts of ghosts.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+import warp as wp
+
+from warpsph.lattice import fill_body, fill_cells
+from warpsph.model import PLANE_FIXED, PLANE_SLIP, PLANE_TRACTION, PLANE_VELOCITY, Model, State
+from warpsph.scene import Scene
+from warpsph.sph.spec import Spec
+
+_BOUNDARY_KINDS = {"fixed": PLANE_FIXED, "slip": PLANE_SLIP, "symmetry": PLANE_SLIP, "free": PLANE_TRACTION,
+                   "velocity": PLANE_VELOCITY}  # fmt: skip
+GHOST_MARGIN = 0.25
+"""Ghost band beyond the support radius 2h, as a fraction of 2h (room for small motions)."""
+ON_PLANE = 1.0e-6
+"""A particle within this fraction of Δx of a plane lies on it."""
+
+
+def _planes(scene: Scene):
+    """One record per boundary plane: boundaries first, then traction loads."""
+    planes = []
+    for b in scene.boundaries:
+        vec = b.velocity if b.kind == "velocity" else (0.0, 0.0, 0.0)
+        planes.append((b.name, b.axis_index, b.position, b.outward_sign, _BOUNDARY_KINDS[b.kind], vec, None,
+                       b.time_function))  # fmt: skip
+    for ld in scene.loads:
+        if ld.kind == "traction":
+            planes.append((ld.name, ld.axis_index, ld.position, ld.outward_sign, PLANE_TRACTION, ld.traction,
+                           ld.extent, ld.time_function))  # fmt: skip
+    return planes
+
+
+def _merge_unique(point_sets: list[np.ndarray], dx: float) -> tuple[np.ndarray, np.ndarray]:
+    """Concatenate point sets, dropping points that an earlier set already has; also the set index."""
+    seen: set = set()
+    points, owner = [], []
+    for i, pts in enumerate(point_sets):
+        for p in pts:
+            key = tuple(np.round(p / dx * 2.0).astype(np.int64))
+            if key not in seen:
+                seen.add(key)
+                points.append(p)
+                owner.append(i)
+    return np.asarray(points, dtype=float).reshape(-1, 3), np.asarray(owner, dtype=np.int32)
+
+
+def _ghost_plan(points: np.ndarray, planes, band: float, tol: float):
+    """Mirror ghosts of ``points`` across ``planes``: (positions, source index, plane chain)."""
+    pos = np.asarray(points, dtype=float).reshape(-1, 3)
+    src = np.arange(len(pos), dtype=np.int32)
+    chain = np.full((len(pos), 3), -1, dtype=np.int32)
+    n_owned = len(pos)
+    for p_idx, (_n, axis, position, sign, *_rest) in enumerate(planes):
+        depth = sign * (position - pos[:, axis])
+        sel = np.nonzero((depth > tol) & (depth <= band) & (chain[:, 2] < 0))[0]
+        mirrored = pos[sel].copy()
+        mirrored[:, axis] = 2.0 * position - mirrored[:, axis]
+        new_chain = chain[sel].copy()
+        slot = np.argmax(new_chain < 0, axis=1)
+        new_chain[np.arange(len(sel)), slot] = p_idx
+        pos = np.concatenate([pos, mirrored])
+        src = np.concatenate([src, src[sel]])
+        chain = np.concatenate([chain, new_chain])
+    return pos[n_owned:], src[n_owned:], chain[n_owned:]
+
+
+def _initial_velocity(body, points: np.ndarray) -> np.ndarray:
+    v = np.tile(np.asarray(body.velocity, dtype=float), (len(points), 1))
+    if body.angular_velocity:
+        r = points - np.asarray(body.center, dtype=float)
+        v[:, 0] -= body.angular_velocity * r[:, 1]
+        v[:, 1] += body.angular_velocity * r[:, 0]
+    return v
+
+
+def voigt_to_tensor(voigt) -> np.ndarray:
+    """(…,6) Voigt xx, yy, zz, yz, xz, xy → (…,3,3) symmetric tensors."""
+    v = np.asarray(voigt, dtype=float)
+    xx, yy, zz, yz, xz, xy = (v[..., i] for i in range(6))
+    return np.stack([np.stack([xx, xy, xz], -1), np.stack([xy, yy, yz], -1), np.stack([xz, yz, zz], -1)], -2)
+
+
+def tensor_to_voigt(t: np.ndarray) -> np.ndarray:
+    """(…,3,3) → (…,6) Voigt xx, yy, zz, yz, xz, xy."""
+    return np.stack([t[..., 0, 0], t[..., 1, 1], t[..., 2, 2], t[..., 1, 2], t[..., 0, 2], t[..., 0, 1]], -1)
+
+
+def build(scene: Scene, device: str = "cpu", precision: str | None = None) -> tuple[Model, State]:
+    """Turn a validated ``scene`` into a Model and its initial State on ``device``."""
+    spec = Spec.from_scene(scene, precision)
+    sim = scene.simulation
+    dx, dim = sim.dx, sim.dim
+    h = scene.smoothing_length
+    band = 2.0 * h * (1.0 + GHOST_MARGIN)
+    tol = ON_PLANE * dx
+    cell_volume = dx**dim
+
+    mat_names = list(scene.materials)
+    mats = [scene.materials[m] for m in mat_names]
+    body_mat = [mat_names.index(b.material) for b in scene.bodies]
+
+    real_pts, real_body = _merge_unique([fill_body(b, dx, dim) for b in scene.bodies], dx)
+    n = len(real_pts)
+    density0 = np.array([mats[body_mat[b]].density for b in real_body])
+    velocity0 = np.zeros((n, 3))
+    stress0 = np.zeros((n, 3, 3))
+    for i, body in enumerate(scene.bodies):
+        sel = real_body == i
+        velocity0[sel] = _initial_velocity(body, real_pts[sel])
+        stress0[sel] = voigt_to_tensor(body.stress)
+
+    planes = _planes(scene)
+    g_pos, g_src, g_chain = _ghost_plan(real_pts, planes, band, tol)
+
+    two_set = spec.scheme == "two_set"
+    if two_set:
+        virt_pts, virt_body = _merge_unique([fill_cells(b, dx, dim) for b in scene.bodies], dx)
+    else:
+        virt_pts, virt_body = np.zeros((0, 3)), np.zeros(0, dtype=np.int32)
+    vg_pos, vg_src, vg_chain = _ghost_plan(virt_pts, planes, band, tol)
+    virt_density = np.array([mats[body_mat[b]].density for b in virt_body])
+
+    # particles lying on planes get the plane's prescribed values
+    on_plane = np.full((n, 3), -1, dtype=np.int32)
+    counts = np.zeros(n, dtype=np.int32)
+    for p_idx, (_n, axis, position, *_rest) in enumerate(planes):
+        hit = np.abs(real_pts[:, axis] - position) <= tol
+        for a in np.nonzero(hit)[0]:
+            if counts[a] < 3:
+                on_plane[a, counts[a]] = p_idx
+                counts[a] += 1
+    constrained = np.nonzero(counts)[0].astype(np.int32)
+
+    vel_loads = [ld for ld in scene.loads if ld.kind == "velocity"]
+    region_particle, region_load = [], []
+    for k, ld in enumerate(vel_loads):
+        inside = np.nonzero(ld.region.contains(real_pts, tol))[0]
+        region_particle.extend(inside.tolist())
+        region_load.extend([k] * len(inside))
+
+    all_pts = np.concatenate([real_pts, g_pos, virt_pts, vg_pos])
+    extent = all_pts.max(axis=0) - all_pts.min(axis=0)
+
+    real, vec3, mat33 = spec.real, spec.vec3, spec.mat33
+    npr = np.float64 if spec.precision == "float64" else np.float32
+
+    def arr(values, dtype, shape_if_empty=None):
+        values = np.asarray(values)
+        if values.size == 0 and shape_if_empty is not None:
+            values = np.zeros(shape_if_empty)
+        return wp.array(values, dtype=dtype, device=device)
+
+    def ext(owned, sources):
+        return np.concatenate([owned, owned[sources]]) if len(sources) else owned
+
+    real_mass = density0 * cell_volume
+    virt_mass = virt_density * cell_volume
+    lo = [np.asarray(p[6].min if p[6] is not None else (-np.inf,) * 3, dtype=float) for p in planes]
+    hi = [np.asarray(p[6].max if p[6] is not None else (np.inf,) * 3, dtype=float) for p in planes]
+    big = np.finfo(np.float32).max
+    model = Model(
+        scene=scene,
+        spec=spec,
+        device=device,
+        dx=dx,
+        h=h,
+        extent=extent,
+        gravity=tuple(sim.gravity),
+        particle_count=n,
+        particle_ghost_count=len(g_src),
+        particle_mass=arr(ext(real_mass, g_src).astype(npr), real),
+        particle_material=arr(ext(np.array([body_mat[b] for b in real_body], np.int32), g_src), wp.int32),
+        particle_x0=real_pts.copy(),
+        particle_ghost_source=arr(g_src, wp.int32),
+        particle_ghost_planes=arr(g_chain, wp.vec3i, (0, 3)),
+        virtual_count=len(virt_pts),
+        virtual_ghost_count=len(vg_src),
+        virtual_mass=arr(ext(virt_mass, vg_src).astype(npr), real),
+        virtual_material=arr(ext(np.array([body_mat[b] for b in virt_body], np.int32), vg_src), wp.int32),
+        virtual_ghost_source=arr(vg_src, wp.int32),
+        virtual_ghost_planes=arr(vg_chain, wp.vec3i, (0, 3)),
+        material_lambda=arr(np.array([m.lame_lambda for m in mats], npr), real),
+        material_shear=arr(np.array([m.shear_modulus for m in mats], npr), real),
+        material_wave_speed=arr(np.array([m.p_wave_speed for m in mats], npr), real),
+        plane_count=len(planes),
+        plane_axis=arr(np.array([p[1] for p in planes], np.int32), wp.int32),
+        plane_position=arr(np.array([p[2] for p in planes], npr), real),
+        plane_sign=arr(np.array([p[3] for p in planes], npr), real),
+        plane_kind=arr(np.array([p[4] for p in planes], np.int32), wp.int32),
+        plane_vector=arr(np.array([p[5] for p in planes], npr), vec3, (0, 3)),
+        plane_extent_lo=arr(np.clip(np.array(lo), -big, big).astype(npr), vec3, (0, 3)),
+        plane_extent_hi=arr(np.clip(np.array(hi), -big, big).astype(npr), vec3, (0, 3)),
+        plane_functions=[p[7] for p in planes],
+        plane_names=[p[0] for p in planes],
+        constraint_count=len(constrained),
+        constraint_particle=arr(constrained, wp.int32),
+        constraint_planes=arr(on_plane[constrained], wp.vec3i, (0, 3)),
+        region_count=len(region_particle),
+        region_particle=arr(np.array(region_particle, np.int32), wp.int32),
+        region_load=arr(np.array(region_load, np.int32), wp.int32),
+        region_velocity=arr(np.array([ld.velocity for ld in vel_loads], npr), vec3, (0, 3)),
+        region_functions=[ld.time_function for ld in vel_loads],
+        particle_ids=np.arange(n, dtype=np.int64),
+    )
+
+    state = model.state()
+    state.particle_q.assign(np.concatenate([real_pts, g_pos]).astype(npr))
+    state.particle_v.assign(ext(velocity0, g_src).astype(npr))
+    state.particle_stress.assign(ext(stress0, g_src).astype(npr))
+    state.particle_density.assign(ext(density0, g_src).astype(npr))
+    if two_set:
+        state.virtual_q.assign(np.concatenate([virt_pts, vg_pos]).astype(npr))
+        state.virtual_density.assign(ext(virt_density, vg_src).astype(npr))
+    return model, state

@@ -1,0 +1,156 @@
+"""Model (what does not change during a run) and State (what a step advances).
+
+Particle arrays of both sets are *extended*: the first ``*_count`` entries are owned particles, the
+remaining ``*_ghost_count`` are mirror ghosts beyond boundary planes whose values the ghost stage
+derives from their sources every time they are needed. Arrays that an effect does not need are not
+allocated (they stay ``None``).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+import numpy as np
+import warp as wp
+
+from warpsph.scene import Scene
+from warpsph.sph.spec import Spec
+
+# Boundary plane kinds as stored in ``Model.plane_kind``.
+PLANE_FIXED, PLANE_SLIP, PLANE_TRACTION, PLANE_VELOCITY = 0, 1, 2, 3
+
+
+@dataclass
+class Model:
+    """Static device data of a run. Shapes: N owned real particles, G real ghosts, M virtual
+    particles, GV virtual ghosts, P boundary planes, C particles lying on planes, R particles of
+    velocity regions."""
+
+    scene: Scene
+    spec: Spec
+    device: str
+    dx: float
+    """Initial particle spacing Δx [m]."""
+    h: float
+    """Smoothing length [m]."""
+    extent: np.ndarray
+    """Size of the initial bounding box, ghosts included [m] (3,)."""
+    gravity: tuple
+    """Body force [m/s²]."""
+
+    particle_count: int
+    particle_ghost_count: int
+    particle_mass: wp.array
+    """(N+G,) mass [kg] (ghosts copy their source)."""
+    particle_material: wp.array
+    """(N+G,) int32 material index."""
+    particle_x0: np.ndarray
+    """(N,3) initial positions [m], host copy."""
+    particle_ghost_source: wp.array
+    """(G,) int32 owned particle each ghost mirrors."""
+    particle_ghost_planes: wp.array
+    """(G,) vec3i planes the source is mirrored across, in order (−1 unused)."""
+
+    virtual_count: int
+    virtual_ghost_count: int
+    virtual_mass: wp.array
+    """(M+GV,) mass [kg] of the virtual stress points."""
+    virtual_material: wp.array
+    """(M+GV,) int32."""
+    virtual_ghost_source: wp.array
+    virtual_ghost_planes: wp.array
+
+    material_lambda: wp.array
+    """(n_materials,) Lamé λ [Pa]."""
+    material_shear: wp.array
+    """(n_materials,) shear modulus G [Pa]."""
+    material_wave_speed: wp.array
+    """(n_materials,) drained P-wave speed [m/s]."""
+
+    plane_count: int
+    plane_axis: wp.array
+    """(P,) int32 axis index 0, 1, 2."""
+    plane_position: wp.array
+    """(P,) plane coordinate [m]."""
+    plane_sign: wp.array
+    """(P,) +1 if the outward normal is +axis, −1 otherwise."""
+    plane_kind: wp.array
+    """(P,) int32, one of PLANE_FIXED, PLANE_SLIP, PLANE_TRACTION, PLANE_VELOCITY."""
+    plane_vector: wp.array
+    """(P,) vec3: the traction [Pa] or velocity [m/s] before the time factor."""
+    plane_extent_lo: wp.array
+    plane_extent_hi: wp.array
+    """(P,) vec3 box [m] outside which a traction plane is traction-free."""
+    plane_functions: list
+    """Host time functions f(t) of the planes."""
+    plane_names: list
+
+    constraint_count: int
+    constraint_particle: wp.array
+    """(C,) int32 owned particles lying on planes."""
+    constraint_planes: wp.array
+    """(C,) vec3i planes each of those lies on (−1 unused)."""
+
+    region_count: int
+    region_particle: wp.array
+    """(R,) int32 particles whose velocity is prescribed."""
+    region_load: wp.array
+    """(R,) int32 index of the velocity load that drives it."""
+    region_velocity: wp.array
+    """(n_velocity_loads,) vec3 [m/s] before the time factor."""
+    region_functions: list
+
+    particle_ids: np.ndarray = field(default_factory=lambda: np.zeros(0, dtype=np.int64))
+
+    @property
+    def particle_total(self) -> int:
+        return self.particle_count + self.particle_ghost_count
+
+    @property
+    def virtual_total(self) -> int:
+        return self.virtual_count + self.virtual_ghost_count
+
+    def state(self) -> "State":
+        """A zeroed State with every array this model's effects need."""
+        return State.allocate(self)
+
+
+@dataclass
+class State:
+    """Fields advanced by a step, on owned particles and their ghosts."""
+
+    particle_q: wp.array
+    """(N+G,) vec3 positions [m]."""
+    particle_v: wp.array
+    """(N+G,) vec3 velocities [m/s]."""
+    particle_stress: wp.array
+    """(N+G,) mat33 effective Cauchy stress [Pa], tension positive."""
+    particle_density: wp.array
+    """(N+G,) mass density [kg/m³]."""
+    virtual_q: wp.array | None
+    """(M+GV,) vec3 positions of the virtual stress points [m] (two-set scheme only)."""
+    virtual_density: wp.array | None
+    """(M+GV,) density at the virtual points [kg/m³] (two-set scheme only)."""
+
+    @classmethod
+    def allocate(cls, model: Model) -> "State":
+        s, dev = model.spec, model.device
+        n, m = model.particle_total, model.virtual_total
+        two_set = s.scheme == "two_set"
+        return cls(
+            particle_q=wp.zeros(n, dtype=s.vec3, device=dev),
+            particle_v=wp.zeros(n, dtype=s.vec3, device=dev),
+            particle_stress=wp.zeros(n, dtype=s.mat33, device=dev),
+            particle_density=wp.zeros(n, dtype=s.real, device=dev),
+            virtual_q=wp.zeros(m, dtype=s.vec3, device=dev) if two_set else None,
+            virtual_density=wp.zeros(m, dtype=s.real, device=dev) if two_set else None,
+        )
+
+    def arrays(self) -> dict[str, wp.array]:
+        """The allocated arrays by name (for checkpoints and copies)."""
+        return {k: v for k, v in vars(self).items() if isinstance(v, wp.array)}
+
+    def assign(self, other: "State") -> None:
+        """Copy every array of ``other`` into this state."""
+        for name, arr in other.arrays().items():
+            wp.copy(getattr(self, name), arr)

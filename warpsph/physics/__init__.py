@@ -1,0 +1,1 @@
+"""Constitutive laws and source terms as Warp functions."""

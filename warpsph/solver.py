@@ -1,0 +1,178 @@
+"""The solver: a time step as an ordered list of named stages.
+
+``Solver(model).step(state_in, state_out, t, dt)`` advances from tⁿ = t to tⁿ⁺¹ = t + Δt; the
+caller swaps the states. Which stages exist follows the model's :class:`~warpsph.sph.spec.Spec`
+(scheme and effects); each stage only launches kernels of its own module. With ``profile=True``
+every stage is synchronised and timed into ``stage_seconds``.
+"""
+
+from __future__ import annotations
+
+import time
+from collections.abc import Callable
+from dataclasses import dataclass
+
+import warp as wp
+
+from warpsph.launching import launch
+from warpsph.model import Model, State
+from warpsph.sph.neighbours import NeighbourList
+from warpsph.stages.boundaries import Boundaries
+from warpsph.stages.collocated import RK_TABLEAU, collocated_kernels
+from warpsph.stages.taylor import taylor_kernels
+
+
+@dataclass
+class Stage:
+    """A named part of a step: ``run(state_in, state_out, t, dt)``."""
+
+    name: str
+    run: Callable[[State, State, float, float], None]
+
+
+class Solver:
+    """Advances a State by one step with the scheme the model's spec selects."""
+
+    def __init__(self, model: Model, profile: bool = False):
+        self.model = model
+        self.profile = profile
+        self.stage_seconds: dict[str, float] = {}
+        self.boundaries = Boundaries(model)
+        s, dev = model.spec, model.device
+        self.support = 2.0 * model.h
+        self.surface_normal = wp.zeros(model.particle_count, dtype=s.vec3, device=dev)
+        if s.scheme == "two_set":
+            self._init_two_set()
+        else:
+            self._init_collocated()
+
+    # -- two-set Taylor-SPH -------------------------------------------------------------------
+    def _init_two_set(self) -> None:
+        m, s, dev = self.model, self.model.spec, self.model.device
+        self.virtual_v = wp.zeros(m.virtual_total, dtype=s.vec3, device=dev)
+        self.virtual_stress = wp.zeros(m.virtual_total, dtype=s.mat33, device=dev)
+        self.virtual_to_real = NeighbourList(s, m.extent, self.support, dev)
+        self.real_to_virtual = NeighbourList(s, m.extent, self.support, dev)
+        self.stages = [
+            Stage("ghosts", self._ghosts_two_set),
+            Stage("neighbours", self._neighbours_two_set),
+            Stage("taylor_half_step", self._half_step),
+            Stage("virtual_ghosts", self._virtual_ghosts),
+            Stage("taylor_full_step", self._full_step),
+            Stage("prescribed_values", self._prescribe),
+        ]
+
+    def _ghosts_two_set(self, si: State, so: State, t: float, dt: float) -> None:
+        self.boundaries.set_time(t)
+        self.boundaries.update_real_ghosts(si.particle_q, si.particle_v, si.particle_stress, si.particle_density)
+        self.boundaries.update_virtual_ghosts(si.virtual_q, self.virtual_v, self.virtual_stress, si.virtual_density)
+
+    def _neighbours_two_set(self, si: State, so: State, t: float, dt: float) -> None:
+        m = self.model
+        self.virtual_to_real.build(si.virtual_q, m.virtual_count, si.particle_q, m.particle_total)
+        self.real_to_virtual.build(si.particle_q, m.particle_count, si.virtual_q, m.virtual_total)
+
+    def _half_step(self, si: State, so: State, t: float, dt: float) -> None:
+        m = self.model
+        real = m.spec.real
+        half_step, _ = taylor_kernels(m.spec)
+        nl = self.virtual_to_real
+        launch(half_step, m.virtual_count,
+               [real(m.h), real(dt), m.spec.vec3(*m.gravity), nl.offsets, nl.indices, si.particle_q,
+                m.particle_mass, si.particle_density, si.particle_v, si.particle_stress, si.virtual_q,
+                si.virtual_density, m.virtual_material, m.material_lambda, m.material_shear, self.virtual_v,
+                self.virtual_stress, so.virtual_q, so.virtual_density], m.device)  # fmt: skip
+
+    def _virtual_ghosts(self, si: State, so: State, t: float, dt: float) -> None:
+        self.boundaries.set_time(t + 0.5 * dt)
+        self.boundaries.update_virtual_ghosts(si.virtual_q, self.virtual_v, self.virtual_stress, si.virtual_density)
+
+    def _full_step(self, si: State, so: State, t: float, dt: float) -> None:
+        m = self.model
+        real = m.spec.real
+        _, full_step = taylor_kernels(m.spec)
+        nl = self.real_to_virtual
+        launch(full_step, m.particle_count,
+               [real(m.h), real(dt), m.spec.vec3(*m.gravity), real(m.scene.simulation.free_surface_threshold),
+                nl.offsets, nl.indices, si.virtual_q, m.virtual_mass, si.virtual_density, self.virtual_v,
+                self.virtual_stress, si.particle_q, si.particle_v, si.particle_stress, si.particle_density,
+                m.particle_material, m.material_lambda, m.material_shear, so.particle_q, so.particle_v,
+                so.particle_stress, so.particle_density, self.surface_normal], m.device)  # fmt: skip
+
+    def _prescribe(self, si: State, so: State, t: float, dt: float) -> None:
+        self.boundaries.set_time(t + dt)
+        self.boundaries.prescribe(so.particle_q, so.particle_v, so.particle_stress)
+
+    # -- collocated baseline --------------------------------------------------------------------
+    def _init_collocated(self) -> None:
+        m, s, dev = self.model, self.model.spec, self.model.device
+        n, ne = m.particle_count, m.particle_total
+        self.real_to_real = NeighbourList(s, m.extent, self.support, dev, same_set=True)
+        self.stage_v = wp.zeros(ne, dtype=s.vec3, device=dev)
+        self.stage_stress = wp.zeros(ne, dtype=s.mat33, device=dev)
+        self.stage_density = wp.zeros(ne, dtype=s.real, device=dev)
+        self.rate_v = wp.zeros(n, dtype=s.vec3, device=dev)
+        self.rate_stress = wp.zeros(n, dtype=s.mat33, device=dev)
+        self.rate_density = wp.zeros(n, dtype=s.real, device=dev)
+        self.stages = [
+            Stage("ghosts", self._ghosts_collocated),
+            Stage("neighbours", self._neighbours_collocated),
+            Stage("runge_kutta", self._runge_kutta),
+            Stage("prescribed_values", self._prescribe),
+        ]
+
+    def _ghosts_collocated(self, si: State, so: State, t: float, dt: float) -> None:
+        self.boundaries.set_time(t)
+        self.boundaries.update_real_ghosts(si.particle_q, si.particle_v, si.particle_stress, si.particle_density)
+
+    def _neighbours_collocated(self, si: State, so: State, t: float, dt: float) -> None:
+        m = self.model
+        self.real_to_real.build(si.particle_q, m.particle_count, si.particle_q, m.particle_total)
+
+    def _runge_kutta(self, si: State, so: State, t: float, dt: float) -> None:
+        m = self.model
+        real, sim = m.spec.real, m.scene.simulation
+        rates, accumulate = collocated_kernels(m.spec)
+        a_coef, b_coef = RK_TABLEAU[m.spec.integrator]
+        c_coef = (0.0, *a_coef)
+        n, nl = m.particle_count, self.real_to_real
+        wp.copy(self.stage_v, si.particle_v)
+        wp.copy(self.stage_stress, si.particle_stress)
+        wp.copy(self.stage_density, si.particle_density)
+        for name in ("particle_q", "particle_v", "particle_stress", "particle_density"):
+            wp.copy(getattr(so, name), getattr(si, name), count=n)
+        for i, b in enumerate(b_coef):
+            if i > 0:
+                self.boundaries.set_time(t + c_coef[i] * dt)
+                self.boundaries.update_real_ghosts(si.particle_q, self.stage_v, self.stage_stress,
+                                                   self.stage_density)  # fmt: skip
+            launch(rates, n,
+                   [real(m.h), real(sim.artificial_viscosity), m.spec.vec3(*m.gravity),
+                    real(sim.free_surface_threshold), nl.offsets, nl.indices, si.particle_q, self.stage_v,
+                    self.stage_stress, self.stage_density, m.particle_mass, m.particle_material,
+                    m.material_lambda, m.material_shear, m.material_wave_speed, self.rate_v, self.rate_stress,
+                    self.rate_density, self.surface_normal], m.device)  # fmt: skip
+            last = i == len(b_coef) - 1
+            a_next = 0.0 if last else a_coef[i]
+            launch(accumulate, n,
+                   [real(b * dt), real(a_next * dt), int(last), si.particle_v, si.particle_stress,
+                    si.particle_density, self.rate_v, self.rate_stress, self.rate_density, self.surface_normal,
+                    self.stage_v, self.stage_stress, self.stage_density, so.particle_q, so.particle_v,
+                    so.particle_stress, so.particle_density], m.device)  # fmt: skip
+
+    # -- driver -----------------------------------------------------------------------------------
+    @property
+    def stage_names(self) -> list[str]:
+        return [s.name for s in self.stages]
+
+    def step(self, state_in: State, state_out: State, t: float, dt: float) -> None:
+        """Advance ``state_in`` at time ``t`` [s] by ``dt`` [s] into ``state_out``."""
+        for stage in self.stages:
+            if self.profile:
+                wp.synchronize_device(self.model.device)
+                start = time.perf_counter()
+                stage.run(state_in, state_out, t, dt)
+                wp.synchronize_device(self.model.device)
+                self.stage_seconds[stage.name] = self.stage_seconds.get(stage.name, 0.0) + time.perf_counter() - start
+            else:
+                stage.run(state_in, state_out, t, dt)

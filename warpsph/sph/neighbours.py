@@ -1,0 +1,124 @@
+"""Neighbour lists built with Warp's hash grid, stored as compressed rows (CSR).
+
+A :class:`NeighbourList` holds, for each of the first ``n_query`` query points, the indices of the
+source points closer than the support radius 2h (the query point itself excluded when both sets are
+the same). It is built once per step and reused by every stage of that step; the hash-grid query
+only yields candidates, so the distance test is done here.
+"""
+
+
+import functools
+
+import numpy as np
+import warp as wp
+
+from warpsph.sph.spec import Spec
+
+
+@functools.cache
+def _kernels(spec: Spec):
+    real, vec3 = spec.real, spec.vec3
+
+    @wp.kernel(enable_backward=False, module="unique")
+    def count(
+        grid: wp.uint64,
+        query: wp.array(dtype=vec3),
+        source: wp.array(dtype=vec3),
+        radius: real,
+        same_set: int,
+        counts: wp.array(dtype=wp.int32),
+    ):
+        a = wp.tid()
+        x = query[a]
+        n = int(0)
+        r2 = radius * radius
+        for b in wp.hash_grid_query(grid, x, radius):
+            if same_set == 1 and b == a:
+                continue
+            d = source[b] - x
+            if wp.dot(d, d) < r2:
+                n += 1
+        counts[a] = n
+
+    @wp.kernel(enable_backward=False, module="unique")
+    def fill(
+        grid: wp.uint64,
+        query: wp.array(dtype=vec3),
+        source: wp.array(dtype=vec3),
+        radius: real,
+        same_set: int,
+        offsets: wp.array(dtype=wp.int32),
+        indices: wp.array(dtype=wp.int32),
+    ):
+        a = wp.tid()
+        x = query[a]
+        k = offsets[a]
+        r2 = radius * radius
+        for b in wp.hash_grid_query(grid, x, radius):
+            if same_set == 1 and b == a:
+                continue
+            d = source[b] - x
+            if wp.dot(d, d) < r2:
+                indices[k] = b
+                k += 1
+
+    return count, fill
+
+
+def grid_dims(extent: np.ndarray, cell: float, dim: int, max_cells: int = 256) -> tuple[int, int, int]:
+    """Hash-grid resolution covering ``extent`` [m] (3,) with cells of width ``cell`` [m]."""
+    dims = [max(1, min(max_cells, int(np.ceil(e / cell)) + 2)) for e in extent]
+    if dim < 3:
+        dims[2] = 1
+    if dim == 1:
+        dims[0] = 1
+    return dims[0], dims[1], dims[2]
+
+
+class NeighbourList:
+    """CSR neighbour list of query points against source points within ``radius`` [m].
+
+    ``offsets`` (n_query + 1,) int32 and ``indices`` (n_pairs,) int32: the neighbours of query
+    point a are ``indices[offsets[a]:offsets[a+1]]``, in hash-grid cell order.
+    """
+
+    def __init__(self, spec: Spec, extent: np.ndarray, radius: float, device, same_set: bool = False):
+        self.spec = spec
+        self.radius = radius
+        self.same_set = same_set
+        self.device = device
+        nx, ny, nz = grid_dims(np.asarray(extent, dtype=float), radius, spec.dim)
+        self.grid = wp.HashGrid(nx, ny, nz, device=device, dtype=spec.real)
+        self.offsets = wp.zeros(1, dtype=wp.int32, device=device)
+        self.counts = wp.zeros(1, dtype=wp.int32, device=device)
+        self.indices = wp.zeros(1, dtype=wp.int32, device=device)
+        self.n_query = 0
+        self.n_pairs = 0
+
+    def build(self, query: wp.array, n_query: int, source: wp.array, n_source: int) -> None:
+        """Find the neighbours of ``query[:n_query]`` among ``source[:n_source]``."""
+        count, fill = _kernels(self.spec)
+        real = self.spec.real
+        src = source[:n_source]
+        self.grid.build(src, real(self.radius))
+        if self.counts.shape[0] < n_query + 1:
+            self.counts = wp.zeros(n_query + 1, dtype=wp.int32, device=self.device)
+            self.offsets = wp.zeros(n_query + 1, dtype=wp.int32, device=self.device)
+        self.n_query = n_query
+        if n_query == 0:
+            self.n_pairs = 0
+            return
+        args = [wp.uint64(self.grid.id), query, src, real(self.radius), int(self.same_set)]
+        wp.launch(count, dim=n_query, inputs=[*args, self.counts], device=self.device)
+        self.counts[n_query : n_query + 1].zero_()
+        wp.utils.array_scan(self.counts[: n_query + 1], self.offsets[: n_query + 1], inclusive=False)
+        self.n_pairs = int(self.offsets[n_query : n_query + 1].numpy()[0])
+        if self.indices.shape[0] < max(self.n_pairs, 1):
+            self.indices = wp.zeros(int(self.n_pairs * 1.25) + 16, dtype=wp.int32, device=self.device)
+        wp.launch(fill, dim=n_query, inputs=[*args, self.offsets, self.indices], device=self.device)
+
+    def to_lists(self) -> list[np.ndarray]:
+        """Host copy, one sorted index array per query point (for tests and probes)."""
+        off = self.offsets.numpy()[: self.n_query + 1]
+        idx = self.indices.numpy()
+        return [np.sort(idx[off[a] : off[a + 1]]) for a in range(self.n_query)]

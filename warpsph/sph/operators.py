@@ -1,0 +1,105 @@
+"""Corrected SPH operators as Warp functions (no kernels, no arrays of their own).
+
+The one operator used everywhere is a *linear fit* of a field carried by a source set at a query
+point x (finite-particle form of method.md §5). With r = x_b − x and g_b = ∇_x W(x − x_b), the
+Taylor expansion f_b = f + ∇f·r, weighted by V_b W and V_b g_b and summed, gives
+
+    [ w0   wr^T ] [ f  ]   [ Σ V_b W f_b ]        w0 = Σ V W,  wr = Σ V W r,
+    [ g0   M    ] [ ∇f ] = [ Σ V_b g f_b ]        g0 = Σ V g,  M  = Σ V g ⊗ r.
+
+Eliminating ∇f: f = Σ V_b ψ_b f_b and ∇f = Σ V_b φ_b f_b − e f, with
+ψ_b = (W − c·g_b)/(w0 − c·g0), φ_b = M⁻¹ g_b, c = M⁻ᵀ wr, e = M⁻¹ g0. Both are exact for linear
+fields; where M is singular (too few neighbours) the fit falls back to Shepard interpolation and an
+uncorrected gradient. ``fit_operator`` returns (c, inv_den, Minv, e, M, corrected).
+"""
+
+
+import functools
+
+import warp as wp
+
+from warpsph.sph.kernels import smoothing_functions
+from warpsph.sph.spec import Spec
+
+MIN_DETERMINANT = 1.0e-3
+"""Below this det(M) (M ≈ I in the interior) the fit falls back to Shepard + uncorrected gradient."""
+
+
+@functools.cache
+def operator_functions(spec: Spec):
+    """Warp functions ``fit_operator``, ``fit_weights``, ``unused_axes``, ``smallest_eigenvalue``."""
+    real, vec3, mat33 = spec.real, spec.vec3, spec.mat33
+    W, grad_W = smoothing_functions(spec)
+    mask = spec.axis_mask
+    unused = mat33(
+        real(1.0 - mask[0]), real(0.0), real(0.0),
+        real(0.0), real(1.0 - mask[1]), real(0.0),
+        real(0.0), real(0.0), real(1.0 - mask[2]),
+    )  # fmt: skip
+    zero = real(0.0)
+    min_det = real(MIN_DETERMINANT)
+
+    @wp.func
+    def unused_axes():
+        """Identity on the axes a scene does not use (added to M so it stays invertible)."""
+        return unused
+
+    @wp.func
+    def fit_operator(
+        x: vec3,
+        start: int,
+        end: int,
+        nbr: wp.array(dtype=wp.int32),
+        xs: wp.array(dtype=vec3),
+        ms: wp.array(dtype=real),
+        rhos: wp.array(dtype=real),
+        h: real,
+    ):
+        w0 = zero
+        wr = vec3(zero, zero, zero)
+        g0 = vec3(zero, zero, zero)
+        M = mat33(zero)
+        for k in range(start, end):
+            b = nbr[k]
+            r = xs[b] - x
+            vol = ms[b] / rhos[b]
+            w = W(wp.length(r), h) * vol
+            g = grad_W(-r, h) * vol
+            w0 += w
+            wr += w * r
+            g0 += g
+            M += wp.outer(g, r)
+        Mreg = M + unused
+        corrected = wp.abs(wp.determinant(Mreg)) > min_det
+        Minv = wp.identity(3, dtype=real)
+        c = vec3(zero, zero, zero)
+        if corrected:
+            Minv = wp.inverse(Mreg)
+            c = wp.transpose(Minv) * wr
+        den = w0 - wp.dot(c, g0)
+        if den <= real(0.1) * w0:
+            corrected = False
+            Minv = wp.identity(3, dtype=real)
+            c = vec3(zero, zero, zero)
+            den = w0
+        inv_den = zero
+        if den > zero:
+            inv_den = real(1.0) / den
+        e = Minv * g0
+        return c, inv_den, Minv, e, M, corrected
+
+    @wp.func
+    def fit_weights(r: vec3, h: real, c: vec3, inv_den: real, Minv: mat33):
+        """Value weight ψ and gradient weight φ of a source at offset r = x_b − x (times V_b)."""
+        g = grad_W(-r, h)
+        psi = (W(wp.length(r), h) - wp.dot(c, g)) * inv_den
+        return psi, Minv * g
+
+    @wp.func
+    def smallest_eigenvalue(M: mat33):
+        """Smallest eigenvalue of sym(M) + unused axes (≈1 inside a body, ≈0.5 on its surface)."""
+        S = real(0.5) * (M + wp.transpose(M)) + unused
+        Q, d = wp.eig3(S)
+        return wp.min(d[0], wp.min(d[1], d[2]))
+
+    return fit_operator, fit_weights, unused_axes, smallest_eigenvalue

@@ -1,0 +1,64 @@
+"""The compile-time choices that select one variant of every Warp kernel.
+
+A :class:`Spec` is frozen and hashable: kernel factories are cached on it, so each combination of
+precision, dimension, smoothing kernel and effects compiles once per process. Per-particle material
+values stay data (arrays) and never multiply variants.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import warp as wp
+
+from warpsph.scene import Effects
+
+_TYPES = {
+    "float32": (wp.float32, wp.vec3f, wp.mat33f, wp.vec4f, wp.mat44f),
+    "float64": (wp.float64, wp.vec3d, wp.mat33d, wp.vec4d, wp.mat44d),
+}
+
+
+@dataclass(frozen=True)
+class Spec:
+    """precision ("float32"|"float64"), dim (1, 2, 3), kernel ("cubic_spline"|"wendland_c2"),
+    scheme ("two_set"|"collocated"), integrator ("rk2"|"rk4") and the scene's effects."""
+
+    precision: str = "float64"
+    dim: int = 2
+    kernel: str = "cubic_spline"
+    scheme: str = "two_set"
+    integrator: str = "rk4"
+    effects: Effects = Effects()
+
+    @classmethod
+    def from_scene(cls, scene, precision: str | None = None) -> "Spec":
+        """The variant a scene needs; ``precision`` overrides the scene's."""
+        sim = scene.simulation
+        return cls(precision or sim.precision, sim.dim, sim.kernel, sim.scheme, sim.integrator, scene.effects)
+
+    @property
+    def real(self):
+        """Warp scalar type of particle fields."""
+        return _TYPES[self.precision][0]
+
+    @property
+    def vec3(self):
+        return _TYPES[self.precision][1]
+
+    @property
+    def mat33(self):
+        return _TYPES[self.precision][2]
+
+    @property
+    def vec4(self):
+        return _TYPES[self.precision][3]
+
+    @property
+    def mat44(self):
+        return _TYPES[self.precision][4]
+
+    @property
+    def axis_mask(self) -> tuple[float, float, float]:
+        """1 on the axes a scene of this dimension uses: 1D is the y axis, 2D is x-y."""
+        return {1: (0.0, 1.0, 0.0), 2: (1.0, 1.0, 0.0), 3: (1.0, 1.0, 1.0)}[self.dim]

@@ -1,0 +1,202 @@
+"""Boundary planes: mirror ghosts of both particle sets and prescribed values on the planes.
+
+Each field has its own parity across a plane with outward normal n = s e_m (method.md §4,
+"Boundaries"):
+
+| plane     | velocity                    | stress                                         |
+|-----------|-----------------------------|------------------------------------------------|
+| fixed     | odd (v_g = −v)              | even (σ_g = σ)                                 |
+| velocity  | odd about v̄ (2v̄ − v)        | even                                           |
+| slip      | normal odd, tangential even | mirrored, σ_g = RσR (shear odd, normal even)   |
+| traction  | even                        | row m odd about the traction: σ_g,mk = 2 s t̄_k − σ_mk |
+
+Particles that lie on a plane get the plane's prescribed values after every update. Velocity
+regions prescribe the velocity of the particles that started inside them.
+"""
+
+
+import functools
+
+import numpy as np
+import warp as wp
+
+from warpsph.launching import launch
+from warpsph.model import PLANE_FIXED, PLANE_SLIP, PLANE_TRACTION, PLANE_VELOCITY, Model
+from warpsph.sph.spec import Spec
+
+
+@functools.cache
+def _kernels(spec: Spec):
+    real, vec3, mat33 = spec.real, spec.vec3, spec.mat33
+    two = real(2.0)
+
+    @wp.func
+    def traction_here(p: int, x: vec3, axis: int, vector: wp.array(dtype=vec3), lo: wp.array(dtype=vec3),
+                      hi: wp.array(dtype=vec3), factor: wp.array(dtype=real)):  # fmt: skip
+        """Traction t̄ f(t) at the plane point nearest x, zero outside the plane's extent."""
+        inside = True
+        for k in range(3):
+            if k != axis and (x[k] < lo[p][k] or x[k] > hi[p][k]):
+                inside = False
+        if inside:
+            return vector[p] * factor[p]
+        return vec3(real(0.0), real(0.0), real(0.0))
+
+    @wp.kernel(enable_backward=False, module="unique")
+    def update_ghosts(
+        n_owned: int,
+        source: wp.array(dtype=wp.int32),
+        chain: wp.array(dtype=wp.vec3i),
+        plane_axis: wp.array(dtype=wp.int32),
+        plane_position: wp.array(dtype=real),
+        plane_sign: wp.array(dtype=real),
+        plane_kind: wp.array(dtype=wp.int32),
+        plane_vector: wp.array(dtype=vec3),
+        plane_lo: wp.array(dtype=vec3),
+        plane_hi: wp.array(dtype=vec3),
+        factor: wp.array(dtype=real),
+        q: wp.array(dtype=vec3),
+        v: wp.array(dtype=vec3),
+        stress: wp.array(dtype=mat33),
+        density: wp.array(dtype=real),
+    ):
+        g = wp.tid()
+        src = source[g]
+        x = q[src]
+        u = v[src]
+        s = stress[src]
+        planes = chain[g]
+        for c in range(3):
+            p = planes[c]
+            if p >= 0:
+                m = plane_axis[p]
+                kind = plane_kind[p]
+                x[m] = two * plane_position[p] - x[m]
+                if kind == PLANE_FIXED:
+                    u = -u
+                elif kind == PLANE_VELOCITY:
+                    u = two * plane_vector[p] * factor[p] - u
+                elif kind == PLANE_SLIP:
+                    u[m] = -u[m]
+                    for k in range(3):
+                        if k != m:
+                            s[m, k] = -s[m, k]
+                            s[k, m] = -s[k, m]
+                else:
+                    t = traction_here(p, x, m, plane_vector, plane_lo, plane_hi, factor)
+                    sign = plane_sign[p]
+                    for k in range(3):
+                        s[m, k] = two * sign * t[k] - s[m, k]
+                        if k != m:
+                            s[k, m] = s[m, k]
+        q[n_owned + g] = x
+        v[n_owned + g] = u
+        stress[n_owned + g] = s
+        density[n_owned + g] = density[src]
+
+    @wp.kernel(enable_backward=False, module="unique")
+    def prescribe_on_planes(
+        particle: wp.array(dtype=wp.int32),
+        planes_of: wp.array(dtype=wp.vec3i),
+        plane_axis: wp.array(dtype=wp.int32),
+        plane_sign: wp.array(dtype=real),
+        plane_kind: wp.array(dtype=wp.int32),
+        plane_vector: wp.array(dtype=vec3),
+        plane_lo: wp.array(dtype=vec3),
+        plane_hi: wp.array(dtype=vec3),
+        factor: wp.array(dtype=real),
+        q: wp.array(dtype=vec3),
+        v: wp.array(dtype=vec3),
+        stress: wp.array(dtype=mat33),
+    ):
+        i = wp.tid()
+        a = particle[i]
+        u = v[a]
+        s = stress[a]
+        planes = planes_of[i]
+        for c in range(3):
+            p = planes[c]
+            if p >= 0:
+                m = plane_axis[p]
+                kind = plane_kind[p]
+                if kind == PLANE_FIXED:
+                    u = vec3(real(0.0), real(0.0), real(0.0))
+                elif kind == PLANE_VELOCITY:
+                    u = plane_vector[p] * factor[p]
+                elif kind == PLANE_SLIP:
+                    u[m] = real(0.0)
+                else:
+                    t = traction_here(p, q[a], m, plane_vector, plane_lo, plane_hi, factor)
+                    for k in range(3):
+                        s[m, k] = plane_sign[p] * t[k]
+                        s[k, m] = s[m, k]
+        v[a] = u
+        stress[a] = s
+
+    @wp.kernel(enable_backward=False, module="unique")
+    def prescribe_in_regions(
+        particle: wp.array(dtype=wp.int32),
+        load: wp.array(dtype=wp.int32),
+        velocity: wp.array(dtype=vec3),
+        factor: wp.array(dtype=real),
+        v: wp.array(dtype=vec3),
+    ):
+        i = wp.tid()
+        k = load[i]
+        v[particle[i]] = velocity[k] * factor[k]
+
+    return update_ghosts, prescribe_on_planes, prescribe_in_regions
+
+
+class Boundaries:
+    """Launches the ghost and prescription kernels of a model; holds the per-time load factors."""
+
+    def __init__(self, model: Model):
+        self.model = model
+        real = model.spec.real
+        self.plane_factor = wp.zeros(max(model.plane_count, 1), dtype=real, device=model.device)
+        self.region_factor = wp.zeros(max(len(model.region_functions), 1), dtype=real, device=model.device)
+        self._time = None
+
+    def set_time(self, t: float) -> None:
+        """Evaluate every load's time function at ``t`` [s] (a no-op if already there)."""
+        if t == self._time:
+            return
+        m = self.model
+        if m.plane_count:
+            self.plane_factor.assign(np.array([f(t) for f in m.plane_functions]))
+        if m.region_functions:
+            self.region_factor.assign(np.array([f(t) for f in m.region_functions]))
+        self._time = t
+
+    def _plane_args(self):
+        m = self.model
+        return [m.plane_axis, m.plane_position, m.plane_sign, m.plane_kind, m.plane_vector,
+                m.plane_extent_lo, m.plane_extent_hi, self.plane_factor]  # fmt: skip
+
+    def update_real_ghosts(self, q, v, stress, density) -> None:
+        """Ghost entries of the real set from their sources."""
+        m = self.model
+        update_ghosts, _, _ = _kernels(m.spec)
+        launch(update_ghosts, m.particle_ghost_count,
+               [m.particle_count, m.particle_ghost_source, m.particle_ghost_planes, *self._plane_args(), q, v,
+                stress, density], m.device)  # fmt: skip
+
+    def update_virtual_ghosts(self, q, v, stress, density) -> None:
+        """Ghost entries of the virtual set from their sources."""
+        m = self.model
+        update_ghosts, _, _ = _kernels(m.spec)
+        launch(update_ghosts, m.virtual_ghost_count,
+               [m.virtual_count, m.virtual_ghost_source, m.virtual_ghost_planes, *self._plane_args(), q, v,
+                stress, density], m.device)  # fmt: skip
+
+    def prescribe(self, q, v, stress) -> None:
+        """Set prescribed velocities and tractions on plane and region particles."""
+        m = self.model
+        _, on_planes, in_regions = _kernels(m.spec)
+        plane_args = self._plane_args()
+        launch(on_planes, m.constraint_count,
+               [m.constraint_particle, m.constraint_planes, plane_args[0], *plane_args[2:], q, v, stress],
+               m.device)  # fmt: skip
+        launch(in_regions, m.region_count,
+               [m.region_particle, m.region_load, m.region_velocity, self.region_factor, v], m.device)

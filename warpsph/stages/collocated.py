@@ -1,0 +1,144 @@
+"""Collocated SPH baseline: one particle set, the same corrected operators, method of lines.
+
+The whole system dΦ/dt = (∇·σ′/ρ + b + Π,  D:d + Wσ′ − σ′W,  −ρ tr d) is integrated by the
+scene's Runge–Kutta scheme (RK2 midpoint or classic RK4) with particles fixed during the step and
+moved by the RK-weighted velocity at its end. ∇f_a = M_a⁻¹ Σ V_b (f_b − f_a) ∇W_ab is exact for
+linear fields. Π is Monaghan's artificial viscosity (coefficient α, zero by default).
+"""
+
+
+import functools
+
+import warp as wp
+
+from warpsph.physics.elastic import elastic_functions
+from warpsph.sph.kernels import smoothing_functions
+from warpsph.sph.operators import operator_functions
+from warpsph.sph.spec import Spec
+
+RK_TABLEAU = {
+    # (a: stage offsets from yⁿ, b: weights)
+    "rk2": ((0.5,), (0.0, 1.0)),
+    "rk4": ((0.5, 0.5, 1.0), (1.0 / 6.0, 1.0 / 3.0, 1.0 / 3.0, 1.0 / 6.0)),
+}
+
+
+@functools.cache
+def collocated_kernels(spec: Spec):
+    """``(rates, accumulate)`` kernels for ``spec``."""
+    real, vec3, mat33 = spec.real, spec.vec3, spec.mat33
+    W, grad_W = smoothing_functions(spec)
+    _fit, _weights, unused_axes, smallest_eigenvalue = operator_functions(spec)
+    hooke_rate, _source, split_velocity_gradient = elastic_functions(spec)
+    zero = real(0.0)
+
+    @wp.kernel(enable_backward=False, module="unique")
+    def rates(
+        h: real,
+        alpha: real,
+        gravity: vec3,
+        surface_threshold: real,
+        offsets: wp.array(dtype=wp.int32),
+        nbr: wp.array(dtype=wp.int32),
+        q: wp.array(dtype=vec3),
+        v: wp.array(dtype=vec3),
+        stress: wp.array(dtype=mat33),
+        density: wp.array(dtype=real),
+        mass: wp.array(dtype=real),
+        material: wp.array(dtype=wp.int32),
+        lam: wp.array(dtype=real),
+        shear: wp.array(dtype=real),
+        wave_speed: wp.array(dtype=real),
+        dv: wp.array(dtype=vec3),
+        dstress: wp.array(dtype=mat33),
+        ddensity: wp.array(dtype=real),
+        surface_normal: wp.array(dtype=vec3),
+    ):
+        a = wp.tid()
+        x = q[a]
+        start = offsets[a]
+        end = offsets[a + 1]
+        M = mat33(zero)
+        g0 = vec3(zero, zero, zero)
+        for k in range(start, end):
+            b = nbr[k]
+            g = grad_W(x - q[b], h) * (mass[b] / density[b])
+            M += wp.outer(g, q[b] - x)
+            g0 += g
+        Mreg = M + unused_axes()
+        Minv = wp.identity(3, dtype=real)
+        if wp.abs(wp.determinant(Mreg)) > real(1.0e-3):
+            Minv = wp.inverse(Mreg)
+        va = v[a]
+        sa = stress[a]
+        rho = density[a]
+        ca = wave_speed[material[a]]
+        G = mat33(zero)
+        div = vec3(zero, zero, zero)
+        visc = vec3(zero, zero, zero)
+        for k in range(start, end):
+            b = nbr[k]
+            gW = grad_W(x - q[b], h)
+            phi = Minv * gW * (mass[b] / density[b])
+            G += wp.outer(phi, v[b] - va)
+            div += (stress[b] - sa) * phi
+            xab = x - q[b]
+            vab = va - v[b]
+            vr = wp.dot(vab, xab)
+            if alpha > zero and vr < zero:
+                mu = h * vr / (wp.dot(xab, xab) + real(0.01) * h * h)
+                cbar = real(0.5) * (ca + wave_speed[material[b]])
+                rbar = real(0.5) * (rho + density[b])
+                visc += (mass[b] * alpha * cbar * mu / rbar) * gW
+        d, spin = split_velocity_gradient(G)
+        mat = material[a]
+        dv[a] = div / rho + gravity + visc
+        dstress[a] = hooke_rate(d, lam[mat], shear[mat]) + spin * sa - sa * spin
+        ddensity[a] = -rho * wp.trace(d)
+        normal = vec3(zero, zero, zero)
+        e = Minv * g0
+        if smallest_eigenvalue(M) < surface_threshold and wp.length(e) > zero:
+            normal = -wp.normalize(e)
+        surface_normal[a] = normal
+
+    @wp.func
+    def traction_free(s: mat33, n: vec3):
+        t = s * n
+        return s - wp.outer(t, n) - wp.outer(n, t) + wp.dot(n, t) * wp.outer(n, n)
+
+    @wp.kernel(enable_backward=False, module="unique")
+    def accumulate(
+        b_dt: real,
+        a_dt: real,
+        last: int,
+        v0: wp.array(dtype=vec3),
+        stress0: wp.array(dtype=mat33),
+        density0: wp.array(dtype=real),
+        dv: wp.array(dtype=vec3),
+        dstress: wp.array(dtype=mat33),
+        ddensity: wp.array(dtype=real),
+        surface_normal: wp.array(dtype=vec3),
+        v_stage: wp.array(dtype=vec3),
+        stress_stage: wp.array(dtype=mat33),
+        density_stage: wp.array(dtype=real),
+        q_out: wp.array(dtype=vec3),
+        v_out: wp.array(dtype=vec3),
+        stress_out: wp.array(dtype=mat33),
+        density_out: wp.array(dtype=real),
+    ):
+        """out += b Δt k (out starts as yⁿ); next stage = yⁿ + a Δt k; positions from stage velocity."""
+        a = wp.tid()
+        n = surface_normal[a]
+        q_out[a] = q_out[a] + b_dt * v_stage[a]
+        v_out[a] = v_out[a] + b_dt * dv[a]
+        s_out = stress_out[a] + b_dt * dstress[a]
+        density_out[a] = density_out[a] + b_dt * ddensity[a]
+        if last == 1:
+            s_out = traction_free(s_out, n)
+        stress_out[a] = s_out
+        if last == 0:
+            v_stage[a] = v0[a] + a_dt * dv[a]
+            stress_stage[a] = traction_free(stress0[a] + a_dt * dstress[a], n)
+            density_stage[a] = density0[a] + a_dt * ddensity[a]
+
+    return rates, accumulate
