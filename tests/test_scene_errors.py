@@ -1,0 +1,247 @@
+"""Scene file parsing and validation: every bad input names its key path; lattice filling counts."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from warpsph.errors import SceneError
+from warpsph.lattice import count_lattice_points, fill_body, fill_cells
+from warpsph.scene import Body, Material, Scene, Simulation
+from warpsph.scene_toml import load_scene, parse_scene
+
+BASE = """
+name = "column"
+
+[simulation]
+dim = 2
+dx = 0.1
+end_time = 0.5
+smoothing_ratio = 1.3
+kernel = "cubic_spline"
+scheme = "two_set"
+gravity = [0, -9.81]
+
+[effects]
+pore_water = false
+
+[materials.soil]
+model = "elastic"
+density = 2000
+youngs_modulus = 1e7
+poisson_ratio = 0.3
+
+[[bodies]]
+name = "column"
+material = "soil"
+shape = "box"
+min = [0, 0]
+max = [0.5, 2.0]
+
+[[boundaries]]
+name = "base"
+kind = "fixed"
+axis = "y"
+position = 0.0
+side = "min"
+
+[[boundaries]]
+name = "left"
+kind = "slip"
+axis = "x"
+position = 0.0
+side = "min"
+
+[[loads]]
+name = "top"
+kind = "traction"
+axis = "y"
+position = 2.0
+side = "max"
+traction = [0, -1e4]
+time_function = { kind = "table", times = [0.0, 0.1, 0.2], values = [0.0, 1.0, 1.0] }
+
+[[probes]]
+name = "base_force"
+kind = "reaction"
+boundary = "base"
+field = "y"
+
+[[probes]]
+name = "middle"
+kind = "point"
+field = "stress_yy"
+point = [0.25, 1.0]
+
+[output]
+frame_interval = 0.01
+fields = ["velocity", "stress"]
+"""
+
+SECOND_BODY = """
+[[bodies]]
+name = "column"
+material = "soil"
+min = [1, 0]
+max = [2, 1]
+"""
+
+TRIANGLE_IN_3D = """
+[[bodies]]
+name = "wedge"
+material = "soil"
+shape = "polygon"
+vertices = [[0, 0], [1, 0], [0, 1]]
+"""
+
+
+def edit(old: str, new: str):
+    """A case that replaces the unique text ``old`` of the base scene by ``new``."""
+
+    def apply(text: str) -> str:
+        assert text.count(old) == 1, old
+        return text.replace(old, new)
+
+    return apply
+
+
+def append(extra: str):
+    return lambda text: text + extra
+
+
+def chain(*edits):
+    def apply(text: str) -> str:
+        for e in edits:
+            text = e(text)
+        return text
+
+    return apply
+
+
+BAD_CASES = {
+    "unknown section": (append("\n[solver]\ntolerance = 1\n"), "solver"),
+    "unknown simulation key": (edit("end_time =", "courrant = 0.5\nend_time ="), "simulation.courrant"),
+    "string dx": (edit("dx = 0.1", 'dx = "abc"'), "simulation.dx"),
+    "boolean dx": (edit("dx = 0.1", "dx = true"), "simulation.dx"),
+    "missing material": (edit('material = "soil"', 'material = "clay"'), "bodies.column.material"),
+    "unknown material model": (edit('model = "elastic"', 'model = "mohr_coulomb"'), "materials.soil.model"),
+    "zero E": (edit("youngs_modulus = 1e7", "youngs_modulus = 0"), "materials.soil.youngs_modulus"),
+    "negative E": (edit("youngs_modulus = 1e7", "youngs_modulus = -1e7"), "materials.soil.youngs_modulus"),
+    "nu = 0.5": (edit("poisson_ratio = 0.3", "poisson_ratio = 0.5"), "materials.soil.poisson_ratio"),
+    "nu = -1.2": (edit("poisson_ratio = 0.3", "poisson_ratio = -1.2"), "materials.soil.poisson_ratio"),
+    "zero density": (edit("density = 2000", "density = 0"), "materials.soil.density"),
+    "empty body": (edit("min = [0, 0]\nmax = [0.5, 2.0]", "min = [0.02, 0.02]\nmax = [0.08, 0.08]"), "bodies.column"),
+    "smoothing ratio 1.0": (edit("smoothing_ratio = 1.3", "smoothing_ratio = 1.0"), "simulation.smoothing_ratio"),
+    "smoothing ratio 3.0": (edit("smoothing_ratio = 1.3", "smoothing_ratio = 3.0"), "simulation.smoothing_ratio"),
+    "unknown kernel": (edit('kernel = "cubic_spline"', 'kernel = "gaussian"'), "simulation.kernel"),
+    "unknown scheme": (edit('scheme = "two_set"', 'scheme = "three_set"'), "simulation.scheme"),
+    "bad boundary kind": (edit('kind = "slip"', 'kind = "sticky"'), "boundaries.left.kind"),
+    "axis not in dim": (edit('axis = "x"', 'axis = "z"'), "boundaries.left.axis"),
+    "decreasing table times": (edit("times = [0.0, 0.1, 0.2]", "times = [0.0, 0.2, 0.1]"),
+                               "loads.top.time_function.times[2]"),
+    "unknown probe field": (edit('field = "stress_yy"', 'field = "strain_yy"'), "probes.middle.field"),
+    "reaction on unknown boundary": (edit('boundary = "base"', 'boundary = "bottom"'), "probes.base_force.boundary"),
+    "duplicate body names": (append(SECOND_BODY), "bodies.column.name"),
+    "pore water": (edit("pore_water = false", "pore_water = true"), "effects.pore_water"),
+    "TOML syntax error": (edit("dx = 0.1", "dx = = 0.1"), ""),
+    "polygon in 3D": (chain(edit("dim = 2", "dim = 3"), edit("max = [0.5, 2.0]", "max = [0.5, 2.0, 0.5]"),
+                            append(TRIANGLE_IN_3D)), "bodies.wedge.shape"),
+}
+
+
+def test_base_scene_is_valid():
+    scene = parse_scene(BASE)
+    assert scene.name == "column"
+    assert scene.simulation.gravity == (0.0, -9.81, 0.0)
+    assert scene.materials["soil"].name == "soil"
+    assert scene.bodies[0].max == (0.5, 2.0, 0.0)
+    assert isinstance(scene.materials["soil"].density, float)
+    assert scene.loads[0].time_function(0.05) == pytest.approx(0.5)
+    assert scene.source_text == BASE
+
+
+@pytest.mark.parametrize("case", list(BAD_CASES), ids=list(BAD_CASES))
+def test_bad_scene_names_key(case):
+    make, key = BAD_CASES[case]
+    with pytest.raises(SceneError) as info:
+        parse_scene(make(BASE))
+    assert info.value.key == key
+    assert "\n" not in str(info.value)
+
+
+def test_messages_say_what_is_accepted():
+    with pytest.raises(SceneError, match=r"must be in \(-1, 0\.5\), got 0\.6"):
+        parse_scene(BASE.replace("poisson_ratio = 0.3", "poisson_ratio = 0.6"))
+    with pytest.raises(SceneError, match=r"unknown key; accepted: .*courant, dim, dx"):
+        parse_scene(BASE.replace("end_time =", "courrant = 0.5\nend_time ="))
+    with pytest.raises(SceneError, match=r'expected a number, got "abc"'):
+        parse_scene(BASE.replace("dx = 0.1", 'dx = "abc"'))
+    with pytest.raises(SceneError, match=r'defined materials: "soil"'):
+        parse_scene(BASE.replace('material = "soil"', 'material = "clay"'))
+    with pytest.raises(SceneError, match=r"TOML syntax error: .*line 6"):
+        parse_scene(BASE.replace("dx = 0.1", "dx = = 0.1"))
+    with pytest.raises(SceneError, match=r"empty body: no lattice point of spacing dx = 0.1 lies inside it"):
+        parse_scene(BASE.replace("max = [0.5, 2.0]", "max = [0.05, 2.0]").replace("min = [0, 0]", "min = [0.01, 0]"))
+
+
+def test_load_scene_names_scene_after_file(tmp_path):
+    path = tmp_path / "my_column.toml"
+    path.write_text(BASE.replace('name = "column"\n', ""))
+    scene = load_scene(path)
+    assert scene.name == "my_column"
+    assert scene.source_text == path.read_text()
+
+
+def test_python_built_scene_is_validated():
+    scene = Scene(materials={"soil": Material(name="soil")}, bodies=[Body(material="soil")])
+    assert scene.validate() is scene
+    scene.simulation = Simulation(dx="abc")
+    with pytest.raises(SceneError) as info:
+        scene.validate()
+    assert info.value.key == "simulation.dx"
+
+
+def test_fill_box_2d():
+    box = Body(min=(0, 0, 0), max=(1, 2, 0))
+    points = fill_body(box, 0.5, 2)
+    assert points.shape == (15, 3)
+    assert count_lattice_points(box, 0.5, 2) == 15
+    assert len(fill_cells(box, 0.5, 2)) == 8
+    np.testing.assert_array_equal(points[:, 2], 0.0)
+    order = np.lexsort((points[:, 0], points[:, 1], points[:, 2]))
+    np.testing.assert_array_equal(order, np.arange(len(points)))
+
+
+def test_fill_circle():
+    disc = Body(shape="circle", center=(0, 0, 0), radius=1.0)
+    assert len(fill_body(disc, 0.5, 2)) == 13  # integer points with i² + j² <= 4
+    assert len(fill_cells(disc, 0.5, 2)) == 12
+    assert len(fill_body(disc, 0.5, 3)) == 33
+    assert count_lattice_points(disc, 0.5, 3) == 33
+
+
+def test_fill_triangle():
+    triangle = Body(shape="polygon", vertices=[(0, 0), (1, 0), (0, 1)])
+    points = fill_body(triangle, 0.5, 2)
+    assert {tuple(p[:2]) for p in points} == {(0, 0), (0.5, 0), (1, 0), (0, 0.5), (0.5, 0.5), (0, 1)}
+    assert len(fill_cells(triangle, 0.5, 2)) == 3
+
+
+def test_fill_dim_1_uses_y():
+    column = Body(min=(5, 0, 7), max=(6, 1, 8))
+    points = fill_body(column, 0.25, 1)
+    np.testing.assert_array_equal(points[:, 1], [0, 0.25, 0.5, 0.75, 1.0])
+    np.testing.assert_array_equal(points[:, [0, 2]], 0.0)
+    np.testing.assert_array_equal(fill_cells(column, 0.25, 1)[:, 1], [0.125, 0.375, 0.625, 0.875])
+
+
+def test_documented_example_is_valid():
+    doc = (Path(__file__).parents[1] / "docs" / "scenes.md").read_text()
+    example = next(block for block in doc.split("```toml\n")[1:] if "[simulation]" in block)
+    scene = parse_scene(example.split("```")[0])
+    assert scene.name == "confined_column"
+    assert [b.kind for b in scene.boundaries] == ["fixed", "slip", "slip"]
+    assert scene.loads[0].traction == (0.0, -10e3, 0.0)
+    assert len(fill_body(scene.bodies[0], scene.simulation.dx, 2)) == 11 * 41

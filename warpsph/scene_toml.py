@@ -1,0 +1,104 @@
+"""Reading scenes from TOML files (format: ``docs/scenes.md``).
+
+The file mirrors the dataclasses of :mod:`warpsph.scene`: ``[simulation]``, ``[effects]`` and
+``[output]`` tables, one ``[materials.<name>]`` table per material and ``[[bodies]]``,
+``[[boundaries]]``, ``[[loads]]`` and ``[[probes]]`` arrays of tables. The accepted keys are the
+dataclass fields, so the format follows the dataclasses. Every problem raises
+:class:`~warpsph.errors.SceneError` naming its key path.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import tomllib
+import typing
+from pathlib import Path
+
+from warpsph.errors import SceneError
+from warpsph.scene import Scene
+from warpsph.validation import (
+    convert,
+    field_hints,
+    is_finite_field,
+    item_key,
+    join_key,
+    optional_inner,
+    show,
+    validate_scene,
+)
+
+
+def load_scene(path: str | Path) -> Scene:
+    """Read, parse and validate the scene file ``path``; the scene is named after the file's stem
+    unless the file sets ``name``."""
+    path = Path(path)
+    try:
+        text = path.read_text(encoding="utf-8")
+    except (OSError, UnicodeDecodeError) as exc:
+        reason = exc.strerror if isinstance(exc, OSError) and exc.strerror else str(exc)
+        raise SceneError("", f"cannot read scene file {path}: {reason}") from None
+    return parse_scene(text, name=path.stem)
+
+
+def parse_scene(text: str, name: str = "scene") -> Scene:
+    """Parse and validate the TOML scene ``text``; ``name`` applies unless the text sets ``name``.
+
+    The returned scene keeps ``text`` as its ``source_text``.
+    """
+    try:
+        document = tomllib.loads(text)
+    except tomllib.TOMLDecodeError as exc:
+        raise SceneError("", f"TOML syntax error: {' '.join(str(exc).split())}") from None
+    scene = _from_table(Scene, "", document, exclude=("source_text",))
+    if "name" not in document:
+        scene.name = name
+    scene.source_text = text
+    validate_scene(scene)
+    return scene
+
+
+def _from_table(cls, key: str, table, exclude: tuple[str, ...] = (), **given):
+    """Build the dataclass ``cls`` from the TOML table at ``key``; ``given`` fills excluded fields."""
+    if not isinstance(table, dict):
+        raise SceneError(key, f"expected a table, got {show(table)}")
+    hints = {n: h for n, h in field_hints(cls).items() if n not in exclude}
+    for k in table:
+        if k not in hints:
+            what = "key" if key else "section"
+            raise SceneError(join_key(key, k), f"unknown {what}; accepted: {', '.join(sorted(hints))}")
+    values = {n: _from_value(cls, n, join_key(key, n), table[n], hints[n]) for n in hints if n in table}
+    return cls(**values, **given)
+
+
+def _from_value(owner, name: str, key: str, value, hint):
+    """Convert the TOML value of field ``owner.name`` (type ``hint``) found at ``key``."""
+    hint = optional_inner(hint) or hint
+    origin, args = typing.get_origin(hint), typing.get_args(hint)
+    if dataclasses.is_dataclass(hint):
+        return _from_table(hint, key, value)
+    if origin is dict:
+        return _named_tables(key, value, args[1])
+    if origin is list and dataclasses.is_dataclass(args[0]):
+        return _array_of_tables(key, value, args[0])
+    return convert(key, value, hint, pad=True, finite=is_finite_field(owner, name))
+
+
+def _named_tables(key: str, value, cls) -> dict:
+    """``[key.<name>]`` tables as {name: cls(name=name, ...)}."""
+    if not isinstance(value, dict):
+        raise SceneError(key, f"expected tables [{key}.<name>], got {show(value)}")
+    return {k: _from_table(cls, f"{key}.{k}", v, exclude=("name",), name=k) for k, v in value.items()}
+
+
+def _array_of_tables(key: str, value, cls) -> list:
+    """``[[key]]`` tables as a list of cls; a missing name defaults to e.g. "body0", "body1", ..."""
+    if not isinstance(value, list):
+        raise SceneError(key, f"expected an array of tables [[{key}]], got {show(value)}")
+    items = []
+    for i, table in enumerate(value):
+        if not isinstance(table, dict):
+            raise SceneError(f"{key}[{i}]", f"expected a table, got {show(table)}")
+        name = table.get("name", f"{cls.__name__.lower()}{i}")
+        given = {} if "name" in table else {"name": name}
+        items.append(_from_table(cls, item_key(key, name, i), table, **given))
+    return items

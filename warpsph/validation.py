@@ -1,0 +1,472 @@
+"""Scene validation: types, ranges and cross references, for TOML-built and Python-built scenes.
+
+:func:`validate_scene` raises :class:`~warpsph.errors.SceneError` for the first problem found.
+Key paths are dotted; items of ``bodies``, ``boundaries``, ``loads`` and ``probes`` are named by
+their ``name`` (``bodies.column.material``), or by their index when the name itself is unusable
+(``bodies[0].name``). Messages say what is accepted and what was given:
+``materials.soil.poisson_ratio: must be in (-1, 0.5), got 0.6``.
+
+The type helpers here (:func:`convert`, :func:`field_hints`, :func:`item_key`, :func:`show`, ...)
+are shared with :mod:`warpsph.scene_toml`, which uses them to convert TOML values.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import functools
+import math
+import numbers
+import re
+import types
+import typing
+from collections.abc import Iterable, Sequence
+
+import numpy as np
+
+from warpsph.errors import SceneError
+from warpsph.lattice import count_lattice_points, polygon_area, used_axes
+from warpsph.scene import (
+    AXES,
+    Body,
+    Boundary,
+    Effects,
+    Load,
+    Material,
+    Output,
+    Probe,
+    Region,
+    Scene,
+    Simulation,
+    TimeFunction,
+)
+
+PROBE_FIELDS = (
+    *(f"velocity_{a}" for a in AXES),
+    *(f"displacement_{a}" for a in AXES),
+    *(f"stress_{c}" for c in ("xx", "yy", "zz", "yz", "xz", "xy")),
+    "mean_stress",
+    "von_mises",
+)
+OUTPUT_FIELDS = ("velocity", "stress", "displacement")
+UNAVAILABLE_EFFECTS = ("pore_water", "plasticity")
+"""Effects declared in :class:`~warpsph.scene.Effects` but not implemented in this version."""
+UNBOUNDED_FIELDS = {(Simulation, "velocity_limit"), (Region, "min"), (Region, "max")}
+"""Number fields that may be ±infinity (all others must be finite)."""
+
+_NAME = re.compile(r"[A-Za-z0-9_-]+")
+
+
+# --------------------------------------------------------------------------- rendering
+
+
+def show(value) -> str:
+    """A value as it would be written in a scene file (strings quoted, booleans lower case)."""
+    if isinstance(value, (bool, np.bool_)):
+        return "true" if value else "false"
+    if isinstance(value, str):
+        return '"' + value.replace("\\", "\\\\").replace('"', '\\"') + '"'
+    if isinstance(value, numbers.Integral):
+        return str(int(value))
+    if isinstance(value, numbers.Real):
+        return _number_text(float(value))
+    if isinstance(value, (list, tuple, np.ndarray)):
+        return "[" + ", ".join(show(v) for v in value) + "]"
+    if isinstance(value, dict):
+        return "{" + ", ".join(f"{k} = {show(v)}" for k, v in value.items()) + "}"
+    if value is None:
+        return "nothing"
+    return type(value).__name__
+
+
+def _number_text(x: float) -> str:
+    if math.isnan(x):
+        return "nan"
+    if math.isinf(x):
+        return "inf" if x > 0 else "-inf"
+    return repr(x)
+
+
+def join_key(key: str, name: str) -> str:
+    """``key.name``, or ``name`` at the top level."""
+    return f"{key}.{name}" if key else name
+
+
+def item_key(section: str, name, index: int) -> str:
+    """Key path of a named list item: ``section.name``, or ``section[index]`` if the name is unusable."""
+    if isinstance(name, str) and _NAME.fullmatch(name):
+        return f"{section}.{name}"
+    return f"{section}[{index}]"
+
+
+# --------------------------------------------------------------------------- generic value checks
+
+
+@dataclasses.dataclass(frozen=True)
+class Interval:
+    """A range of real numbers; each end open or closed, possibly infinite."""
+
+    lo: float = -math.inf
+    hi: float = math.inf
+    lo_closed: bool = False
+    hi_closed: bool = False
+
+    def __contains__(self, x: float) -> bool:
+        above = x >= self.lo if self.lo_closed else x > self.lo
+        below = x <= self.hi if self.hi_closed else x < self.hi
+        return above and below
+
+    def __str__(self) -> str:
+        lo, hi = _number_text(self.lo).removesuffix(".0"), _number_text(self.hi).removesuffix(".0")
+        if math.isinf(self.hi):
+            return f"{'>=' if self.lo_closed else '>'} {lo}"
+        if math.isinf(self.lo):
+            return f"{'<=' if self.hi_closed else '<'} {hi}"
+        return f"in {'[' if self.lo_closed else '('}{lo}, {hi}{']' if self.hi_closed else ')'}"
+
+
+POSITIVE = Interval(0.0, hi_closed=True)
+NON_NEGATIVE = Interval(0.0, lo_closed=True, hi_closed=True)
+
+
+def check_range(key: str, value: float, interval: Interval) -> None:
+    """Raise unless ``value`` lies in ``interval``."""
+    if value not in interval:
+        raise SceneError(key, f"must be {interval}, got {show(value)}")
+
+
+def check_choice(key: str, value, choices: Iterable, note: str = "") -> None:
+    """Raise unless ``value`` is one of ``choices``; ``note`` explains a restriction (e.g. the dim)."""
+    choices = tuple(choices)
+    if value not in choices:
+        accepted = ", ".join(show(c) for c in choices)
+        raise SceneError(key, f"must be one of {accepted}{note}, got {show(value)}")
+
+
+def check_unique(what: str, *sections: tuple[str, Sequence]) -> None:
+    """Raise on the first name repeated among the items of the (section, items) pairs."""
+    seen: dict[str, str] = {}
+    for section, items in sections:
+        for i, item in enumerate(items):
+            if item.name in seen:
+                raise SceneError(
+                    f"{item_key(section, item.name, i)}.name",
+                    f"duplicate {what} name {show(item.name)} ({seen[item.name]} and {section}[{i}])",
+                )
+            seen[item.name] = f"{section}[{i}]"
+
+
+def check_name(key: str, name) -> None:
+    """Raise unless ``name`` is a non-empty string of letters, digits, '_' and '-'."""
+    if not isinstance(name, str) or not _NAME.fullmatch(name):
+        raise SceneError(key, f"must be a non-empty string of letters, digits, '_' or '-', got {show(name)}")
+
+
+# --------------------------------------------------------------------------- types and conversion
+
+
+def as_number(key: str, value, finite: bool = True) -> float:
+    """``value`` as a float; booleans are not numbers; NaN never, infinities only if not ``finite``."""
+    if isinstance(value, (bool, np.bool_)) or not isinstance(value, numbers.Real):
+        raise SceneError(key, f"expected a number, got {show(value)}")
+    x = float(value)
+    if math.isnan(x) or (finite and math.isinf(x)):
+        raise SceneError(key, f"expected a finite number, got {show(value)}")
+    return x
+
+
+def as_integer(key: str, value) -> int:
+    """``value`` as an int (booleans and floats are refused)."""
+    if isinstance(value, (bool, np.bool_)) or not isinstance(value, numbers.Integral):
+        raise SceneError(key, f"expected an integer, got {show(value)}")
+    return int(value)
+
+
+def as_bool(key: str, value) -> bool:
+    """``value`` as a bool (true or false, not numbers)."""
+    if not isinstance(value, (bool, np.bool_)):
+        raise SceneError(key, f"expected true or false, got {show(value)}")
+    return bool(value)
+
+
+def as_string(key: str, value) -> str:
+    """``value`` as a str."""
+    if not isinstance(value, str):
+        raise SceneError(key, f"expected a string, got {show(value)}")
+    return value
+
+
+def as_numbers(key: str, value, size: int, pad: bool, finite: bool = True) -> tuple[float, ...]:
+    """A list of ``size`` numbers as a tuple; with ``pad`` 1..``size`` numbers, zero-padded."""
+    fewest = 1 if pad else size
+    wanted = f"{fewest} to {size} numbers" if fewest < size else f"{size} numbers"
+    if not _is_list(value) or not fewest <= len(value) <= size:
+        raise SceneError(key, f"expected a list of {wanted}, got {show(value)}")
+    xs = tuple(as_number(f"{key}[{i}]", v, finite) for i, v in enumerate(value))
+    return xs + (0.0,) * (size - len(xs))
+
+
+def convert(key: str, value, hint, pad: bool = False, finite: bool = True):
+    """Check ``value`` against a dataclass field's leaf type ``hint`` and convert it to that type.
+
+    Leaf types are float, int, bool, str, fixed-size tuples of floats and lists of those. With
+    ``pad`` (scene files), 3-component vectors may be written with 1 to 3 numbers.
+    """
+    origin, args = typing.get_origin(hint), typing.get_args(hint)
+    if hint is float:
+        return as_number(key, value, finite)
+    if hint is int:
+        return as_integer(key, value)
+    if hint is bool:
+        return as_bool(key, value)
+    if hint is str:
+        return as_string(key, value)
+    if origin is tuple:
+        return as_numbers(key, value, len(args), pad and len(args) == 3, finite)
+    if origin is list:
+        if not _is_list(value):
+            raise SceneError(key, f"expected a list, got {show(value)}")
+        return [convert(f"{key}[{i}]", v, args[0], pad, finite) for i, v in enumerate(value)]
+    raise TypeError(f"{key}: unsupported field type {hint!r}")
+
+
+@functools.cache
+def field_hints(cls) -> dict[str, object]:
+    """Resolved type hints of the dataclass ``cls``'s fields, in declaration order."""
+    hints = typing.get_type_hints(cls)
+    return {f.name: hints[f.name] for f in dataclasses.fields(cls)}
+
+
+def optional_inner(hint):
+    """``X`` for a hint ``X | None``, else None."""
+    if isinstance(hint, types.UnionType) or typing.get_origin(hint) is typing.Union:
+        args = [a for a in typing.get_args(hint) if a is not type(None)]
+        if len(args) == 1:
+            return args[0]
+    return None
+
+
+def is_finite_field(cls, name: str) -> bool:
+    """Whether the number field ``cls.name`` must be finite."""
+    return (cls, name) not in UNBOUNDED_FIELDS
+
+
+def check_types(obj, key: str) -> None:
+    """Check every field of the dataclass instance ``obj`` (recursively) against its declared type."""
+    for name, hint in field_hints(type(obj)).items():
+        value, field_key = getattr(obj, name), join_key(key, name)
+        inner = optional_inner(hint)
+        if inner is not None:
+            if value is None:
+                continue
+            hint = inner
+        if dataclasses.is_dataclass(hint):
+            check_instance(field_key, value, hint)
+            check_types(value, field_key)
+        else:
+            convert(field_key, value, hint, finite=is_finite_field(type(obj), name))
+
+
+def check_instance(key: str, value, cls) -> None:
+    """Raise unless ``value`` is a ``cls`` instance (for Python-built scenes)."""
+    if not isinstance(value, cls):
+        raise SceneError(key, f"expected a {cls.__name__}, got {type(value).__name__}")
+
+
+def _is_list(value) -> bool:
+    return isinstance(value, (list, tuple, np.ndarray))
+
+
+# --------------------------------------------------------------------------- the scene
+
+
+def validate_scene(scene: Scene) -> None:
+    """Check ``scene``; raise :class:`SceneError` naming the key path of the first problem."""
+    check_instance("", scene, Scene)
+    as_string("name", scene.name)
+    _check_simulation(scene.simulation)
+    _check_effects(scene.effects)
+    _check_materials(scene.materials)
+    dim = scene.simulation.dim
+    bodies = _named_items(scene, "bodies", Body)
+    if not bodies:
+        raise SceneError("bodies", "at least one body is required, e.g. [[bodies]]")
+    check_unique("body", ("bodies", bodies))
+    for i, body in enumerate(bodies):
+        _check_body(body, item_key("bodies", body.name, i), scene)
+    boundaries = _named_items(scene, "boundaries", Boundary)
+    loads = _named_items(scene, "loads", Load)
+    check_unique("boundary or load", ("boundaries", boundaries), ("loads", loads))
+    for i, boundary in enumerate(boundaries):
+        _check_boundary(boundary, item_key("boundaries", boundary.name, i), dim)
+    for i, load in enumerate(loads):
+        _check_load(load, item_key("loads", load.name, i), dim)
+    probes = _named_items(scene, "probes", Probe)
+    check_unique("probe", ("probes", probes))
+    for i, probe in enumerate(probes):
+        _check_probe(probe, item_key("probes", probe.name, i), scene)
+    _check_output(scene.output)
+
+
+def _named_items(scene: Scene, section: str, cls) -> list:
+    """The list ``scene.<section>``, checked to hold ``cls`` instances with valid names."""
+    items = getattr(scene, section)
+    if not isinstance(items, list):
+        raise SceneError(section, f"expected a list of {cls.__name__}, got {type(items).__name__}")
+    for i, item in enumerate(items):
+        check_instance(f"{section}[{i}]", item, cls)
+        check_name(f"{section}[{i}].name", item.name)
+    return items
+
+
+def _check_simulation(sim: Simulation) -> None:
+    check_instance("simulation", sim, Simulation)
+    check_types(sim, "simulation")
+    check_choice("simulation.dim", sim.dim, (1, 2, 3))
+    check_range("simulation.dx", sim.dx, POSITIVE)
+    check_range("simulation.end_time", sim.end_time, POSITIVE)
+    check_range("simulation.smoothing_ratio", sim.smoothing_ratio, Interval(1.1, 2.0, True, True))
+    check_choice("simulation.kernel", sim.kernel, ("cubic_spline", "wendland_c2"))
+    check_choice("simulation.scheme", sim.scheme, ("two_set", "collocated"))
+    check_choice("simulation.integrator", sim.integrator, ("rk2", "rk4"))
+    check_range("simulation.courant", sim.courant, Interval(0.0, 2.0, hi_closed=True))
+    check_choice("simulation.precision", sim.precision, ("float32", "float64"))
+    check_range("simulation.artificial_viscosity", sim.artificial_viscosity, NON_NEGATIVE)
+    check_range("simulation.velocity_limit", sim.velocity_limit, POSITIVE)
+    check_range("simulation.free_surface_threshold", sim.free_surface_threshold, Interval(0.0, 1.0))
+
+
+def _check_effects(effects: Effects) -> None:
+    check_instance("effects", effects, Effects)
+    check_types(effects, "effects")
+    for name in UNAVAILABLE_EFFECTS:
+        if getattr(effects, name):
+            raise SceneError(f"effects.{name}", f"the {name} effect is not available in this version of warpsph")
+
+
+def _check_materials(materials: dict) -> None:
+    if not isinstance(materials, dict):
+        raise SceneError("materials", f"expected a table of materials, got {type(materials).__name__}")
+    if not materials:
+        raise SceneError("materials", "at least one material is required, e.g. [materials.soil]")
+    for name, material in materials.items():
+        check_name(f"materials[{show(name)}]", name)
+        key = f"materials.{name}"
+        check_instance(key, material, Material)
+        check_types(material, key)
+        check_choice(f"{key}.model", material.model, ("elastic",))
+        check_range(f"{key}.density", material.density, POSITIVE)
+        check_range(f"{key}.youngs_modulus", material.youngs_modulus, POSITIVE)
+        check_range(f"{key}.poisson_ratio", material.poisson_ratio, Interval(-1.0, 0.5))
+
+
+def _check_body(body: Body, key: str, scene: Scene) -> None:
+    check_types(body, key)
+    if body.material not in scene.materials:
+        defined = ", ".join(show(m) for m in scene.materials)
+        raise SceneError(f"{key}.material", f"unknown material {show(body.material)}; defined materials: {defined}")
+    check_choice(f"{key}.shape", body.shape, ("box", "polygon", "circle"))
+    dim, dx = scene.simulation.dim, scene.simulation.dx
+    if body.shape == "box":
+        for a in used_axes(dim):
+            if not body.max[a] > body.min[a]:
+                raise SceneError(
+                    f"{key}.max",
+                    f"must be > min on every axis of a {dim}D scene, "
+                    f"got max {AXES[a]} = {show(body.max[a])}, min {AXES[a]} = {show(body.min[a])}",
+                )
+    elif body.shape == "polygon":
+        if dim != 2:
+            raise SceneError(f"{key}.shape", f'"polygon" is only accepted in 2D, got simulation.dim = {dim}')
+        if len(body.vertices) < 3:
+            raise SceneError(f"{key}.vertices", f"a polygon needs at least 3 vertices, got {len(body.vertices)}")
+        extent = np.ptp(np.asarray(body.vertices, dtype=float), axis=0)
+        if abs(polygon_area(body.vertices)) <= 1e-12 * float(extent.max()) ** 2:
+            raise SceneError(f"{key}.vertices", "the polygon has zero area")
+    else:
+        check_range(f"{key}.radius", body.radius, POSITIVE)
+    if count_lattice_points(body, dx, dim) == 0:
+        raise SceneError(key, f"empty body: no lattice point of spacing dx = {show(dx)} lies inside it")
+
+
+def _check_boundary(boundary: Boundary, key: str, dim: int) -> None:
+    check_types(boundary, key)
+    check_choice(f"{key}.kind", boundary.kind, ("fixed", "slip", "symmetry", "free", "velocity"))
+    _check_face(boundary, key, dim)
+    _check_time_function(boundary.time_function, f"{key}.time_function")
+
+
+def _check_load(load: Load, key: str, dim: int) -> None:
+    check_types(load, key)
+    check_choice(f"{key}.kind", load.kind, ("traction", "velocity"))
+    if load.kind == "traction":
+        _check_face(load, key, dim)
+    elif load.region is None:
+        raise SceneError(f"{key}.region", 'a "velocity" load needs region = { min = [...], max = [...] }')
+    for name in ("extent", "region"):
+        if getattr(load, name) is not None:
+            _check_region(getattr(load, name), f"{key}.{name}")
+    _check_time_function(load.time_function, f"{key}.time_function")
+
+
+def _check_face(face: Boundary | Load, key: str, dim: int) -> None:
+    """Check the plane of a boundary or traction load: an axis the scene uses and a side."""
+    axes = [AXES[a] for a in used_axes(dim)]
+    check_choice(f"{key}.axis", face.axis, axes, note=f" (simulation.dim = {dim})")
+    check_choice(f"{key}.side", face.side, ("min", "max"))
+
+
+def _check_region(region: Region, key: str) -> None:
+    for a, (lo, hi) in enumerate(zip(region.min, region.max)):
+        if lo > hi:
+            raise SceneError(
+                f"{key}.max",
+                f"must be >= min on every axis, got max {AXES[a]} = {show(hi)}, min {AXES[a]} = {show(lo)}",
+            )
+
+
+def _check_time_function(tf: TimeFunction, key: str) -> None:
+    check_choice(f"{key}.kind", tf.kind, ("constant", "step", "ramp", "table"))
+    check_range(f"{key}.duration", tf.duration, NON_NEGATIVE)
+    if tf.kind != "table":
+        return
+    if len(tf.times) != len(tf.values) or len(tf.times) < 2:
+        raise SceneError(
+            f"{key}.times",
+            f"times and values must have the same length, at least 2, got {len(tf.times)} and {len(tf.values)}",
+        )
+    for i in range(1, len(tf.times)):
+        if not tf.times[i] > tf.times[i - 1]:
+            raise SceneError(
+                f"{key}.times[{i}]",
+                f"times must be strictly increasing, got {show(tf.times[i])} after {show(tf.times[i - 1])}",
+            )
+
+
+def _check_probe(probe: Probe, key: str, scene: Scene) -> None:
+    check_types(probe, key)
+    check_choice(f"{key}.kind", probe.kind, ("point", "region_mean", "reaction"))
+    if probe.kind == "reaction":
+        check_choice(f"{key}.field", probe.field, AXES, note=" (force component of a reaction probe)")
+        faces = [b.name for b in scene.boundaries] + [ld.name for ld in scene.loads if ld.kind == "traction"]
+        if probe.boundary not in faces:
+            accepted = ", ".join(show(f) for f in faces) or "none defined"
+            raise SceneError(
+                f"{key}.boundary",
+                f"must name a boundary or traction load ({accepted}), got {show(probe.boundary)}",
+            )
+        return
+    check_choice(f"{key}.field", probe.field, PROBE_FIELDS)
+    if probe.kind == "region_mean":
+        if probe.region is None:
+            raise SceneError(f"{key}.region", 'a "region_mean" probe needs region = { min = [...], max = [...] }')
+        _check_region(probe.region, f"{key}.region")
+
+
+def _check_output(output: Output) -> None:
+    check_instance("output", output, Output)
+    check_types(output, "output")
+    check_range("output.frame_interval", output.frame_interval, POSITIVE)
+    for i, name in enumerate(output.fields):
+        check_choice(f"output.fields[{i}]", name, OUTPUT_FIELDS)
+    check_range("output.checkpoint_interval", output.checkpoint_interval, NON_NEGATIVE)
+    check_range("output.probe_every", output.probe_every, Interval(1.0, lo_closed=True, hi_closed=True))
