@@ -11,6 +11,7 @@ from __future__ import annotations
 import numpy as np
 import warp as wp
 
+from warpsph.fields import voigt_to_tensor
 from warpsph.lattice import fill_body, fill_cells
 from warpsph.model import PLANE_FIXED, PLANE_SLIP, PLANE_TRACTION, PLANE_VELOCITY, Model, State
 from warpsph.scene import Scene
@@ -79,18 +80,6 @@ def _initial_velocity(body, points: np.ndarray) -> np.ndarray:
         v[:, 0] -= body.angular_velocity * r[:, 1]
         v[:, 1] += body.angular_velocity * r[:, 0]
     return v
-
-
-def voigt_to_tensor(voigt) -> np.ndarray:
-    """(…,6) Voigt xx, yy, zz, yz, xz, xy → (…,3,3) symmetric tensors."""
-    v = np.asarray(voigt, dtype=float)
-    xx, yy, zz, yz, xz, xy = (v[..., i] for i in range(6))
-    return np.stack([np.stack([xx, xy, xz], -1), np.stack([xy, yy, yz], -1), np.stack([xz, yz, zz], -1)], -2)
-
-
-def tensor_to_voigt(t: np.ndarray) -> np.ndarray:
-    """(…,3,3) → (…,6) Voigt xx, yy, zz, yz, xz, xy."""
-    return np.stack([t[..., 0, 0], t[..., 1, 1], t[..., 2, 2], t[..., 1, 2], t[..., 0, 2], t[..., 0, 1]], -1)
 
 
 def build(scene: Scene, device: str = "cpu", precision: str | None = None) -> tuple[Model, State]:

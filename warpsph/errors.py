@@ -1,7 +1,11 @@
 """Exceptions with messages meant for users."""
 
 
-class SceneError(ValueError):
+class InputError(ValueError):
+    """Something the user gave (scene, arguments, files to resume from) cannot be used."""
+
+
+class SceneError(InputError):
     """A scene is malformed; ``key`` is the dotted key path, e.g. ``materials.soil.poisson_ratio``."""
 
     def __init__(self, key: str, message: str):

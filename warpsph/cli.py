@@ -1,0 +1,103 @@
+"""Command line: ``warpsph run SCENE`` and ``warpsph validate SCENE``.
+
+Exit codes: 0 success, 1 the run went unstable (its output up to then is kept), 2 a bad scene or
+bad arguments (one line on stderr, never a traceback).
+"""
+
+from __future__ import annotations
+
+import argparse
+import sys
+from pathlib import Path
+
+from warpsph.errors import InputError, SceneError, SimulationError
+
+EXIT_UNSTABLE, EXIT_BAD_INPUT = 1, 2
+
+
+def _parser() -> argparse.ArgumentParser:
+    p = argparse.ArgumentParser(prog="warpsph", description="Two-set Taylor-SPH for soils, on NVIDIA Warp.",
+                                formatter_class=argparse.ArgumentDefaultsHelpFormatter)  # fmt: skip
+    sub = p.add_subparsers(dest="command", required=True)
+    run = sub.add_parser("run", help="run a scene", formatter_class=argparse.ArgumentDefaultsHelpFormatter)
+    run.add_argument("scene", type=Path, help="scene file (TOML, see docs/scenes.md)")
+    run.add_argument("--device", default="cpu", help="Warp device: cpu or cuda:0")
+    run.add_argument("--out", type=Path, default=None, help="run directory (default: runs/SCENE_NAME)")
+    run.add_argument("--end-time", type=float, default=None, help="stop at this simulated time [s] "
+                     "instead of the scene's simulation.end_time")  # fmt: skip
+    run.add_argument("--precision", choices=("float32", "float64"), default=None,
+                     help="override the scene's simulation.precision")
+    run.add_argument("--resume", action="store_true", help="continue from the run directory's checkpoint")
+    run.add_argument("--no-progress", action="store_true", help="no progress bar")
+    val = sub.add_parser("validate", help="check a scene without running it")
+    val.add_argument("scene", type=Path, help="scene file (TOML)")
+    return p
+
+
+def _fail(code: int, message: str) -> int:
+    print(f"warpsph: error: {message}", file=sys.stderr)
+    return code
+
+
+def _validate(args) -> int:
+    from warpsph.scene_toml import load_scene
+
+    scene = load_scene(args.scene)
+    print(f"{args.scene}: valid scene '{scene.name}' ({scene.simulation.dim}D, {len(scene.bodies)} bodies)")
+    return 0
+
+
+def _run(args) -> int:
+    from warpsph.scene_toml import load_scene
+
+    scene = load_scene(args.scene)
+    if args.end_time is not None and not args.end_time > 0:
+        raise SceneError("--end-time", f"must be > 0, got {args.end_time}")
+    import warp as wp
+
+    wp.config.quiet = True
+    if args.device.startswith("cuda"):
+        if not wp.is_cuda_available():
+            return _fail(EXIT_BAD_INPUT, f"--device {args.device}: no CUDA device is available")
+    from tqdm import tqdm
+
+    from warpsph.runner import Run
+
+    out = args.out or Path("runs") / scene.name
+    run = Run(scene, out, device=args.device, precision=args.precision, end_time=args.end_time,
+              resume=args.resume)  # fmt: skip
+    print(f"{scene.name}: {run.model.particle_count} particles, {run.model.virtual_count} virtual points, "
+          f"dt = {run.dt:.4g} s, output in {out}")  # fmt: skip
+    bar = tqdm(total=run.end_time, initial=run.time, unit="s", disable=args.no_progress,
+               bar_format="{l_bar}{bar}| t = {n:.4g}/{total:.4g} s [{elapsed}<{remaining}{postfix}]")  # fmt: skip
+
+    def progress(t: float, step: int) -> None:
+        bar.n = min(t, run.end_time)
+        if step % 10 == 0:
+            bar.set_postfix_str(f"step {step}", refresh=False)
+            bar.refresh()
+
+    try:
+        s = run.run(progress=progress)
+    finally:
+        bar.close()
+    print(f"done: {s.steps} steps to t = {s.final_time:.6g} s in {s.wall_seconds:.2f} s "
+          f"({s.particle_steps_per_second:.3g} particle-steps/s), compile {s.compile_seconds:.2f} s, "
+          f"{s.frames} frames")  # fmt: skip
+    return 0
+
+
+def main(argv: list[str] | None = None) -> int:
+    args = _parser().parse_args(argv)
+    try:
+        return _validate(args) if args.command == "validate" else _run(args)
+    except SceneError as e:
+        return _fail(EXIT_BAD_INPUT, f"{getattr(args, 'scene', '')}: {e}")
+    except (FileNotFoundError, InputError) as e:
+        return _fail(EXIT_BAD_INPUT, str(e))
+    except SimulationError as e:
+        return _fail(EXIT_UNSTABLE, str(e))
+
+
+if __name__ == "__main__":
+    sys.exit(main())

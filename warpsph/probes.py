@@ -1,0 +1,79 @@
+"""Probes: scalar time series sampled from the particle fields on the host.
+
+Probes are Lagrangian: a "point" probe follows the material particle nearest its point at the
+start, a "region_mean" probe the particles that start inside its region; a "reaction" probe sums
+the traction σ·n over the particles lying on a boundary plane, each standing for an area V/Δx.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from warpsph.fields import mean_stress, von_mises
+from warpsph.model import Model
+
+_COMPONENT = {"x": 0, "y": 1, "z": 2}
+_STRESS = {"xx": (0, 0), "yy": (1, 1), "zz": (2, 2), "yz": (1, 2), "xz": (0, 2), "xy": (0, 1)}
+
+
+def field_values(name: str, fields: dict[str, np.ndarray], x0: np.ndarray) -> np.ndarray:
+    """Per-particle values of the probe field ``name`` from host arrays position, velocity, stress."""
+    kind, _, comp = name.rpartition("_")
+    if kind == "velocity":
+        return fields["velocity"][:, _COMPONENT[comp]]
+    if kind == "displacement":
+        return fields["position"][:, _COMPONENT[comp]] - x0[:, _COMPONENT[comp]]
+    if kind == "stress":
+        i, j = _STRESS[comp]
+        return fields["stress"][:, i, j]
+    if name == "mean_stress":
+        return mean_stress(fields["stress"])
+    if name == "von_mises":
+        return von_mises(fields["stress"])
+    raise ValueError(f"unknown probe field {name!r}")
+
+
+class Probes:
+    """The scene's probes, resolved against a model's particles."""
+
+    def __init__(self, model: Model):
+        self.model = model
+        self.probes = list(model.scene.probes)
+        x0 = model.particle_x0
+        tol = 1.0e-6 * model.dx
+        self.selection: list[np.ndarray] = []
+        self.normal: list[np.ndarray | None] = []
+        self._mass = model.particle_mass.numpy()[: model.particle_count]
+        for p in self.probes:
+            normal = None
+            if p.kind == "point":
+                sel = np.array([np.argmin(np.sum((x0 - np.asarray(p.point)) ** 2, axis=1))])
+            elif p.kind == "region_mean":
+                sel = np.nonzero(p.region.contains(x0, tol))[0]
+            else:
+                plane = model.plane_names.index(p.boundary)
+                axis = int(model.plane_axis.numpy()[plane])
+                position = float(model.plane_position.numpy()[plane])
+                sel = np.nonzero(np.abs(x0[:, axis] - position) <= tol)[0]
+                normal = np.zeros(3)
+                normal[axis] = float(model.plane_sign.numpy()[plane])
+            self.selection.append(sel)
+            self.normal.append(normal)
+
+    @property
+    def names(self) -> list[str]:
+        return [p.name for p in self.probes]
+
+    def sample(self, fields: dict[str, np.ndarray]) -> dict[str, float]:
+        """Probe values from host fields position (N,3), velocity (N,3), stress (N,3,3), density (N,)."""
+        out = {}
+        x0 = self.model.particle_x0
+        for p, sel, normal in zip(self.probes, self.selection, self.normal):
+            if p.kind == "reaction":
+                traction = fields["stress"][sel] @ normal
+                area = self._mass[sel] / fields["density"][sel] / self.model.dx
+                out[p.name] = float(np.sum(traction[:, _COMPONENT[p.field]] * area))
+            else:
+                values = field_values(p.field, {k: v[sel] for k, v in fields.items()}, x0[sel])
+                out[p.name] = float(np.mean(values)) if len(values) else float("nan")
+        return out

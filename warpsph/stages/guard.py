@@ -1,0 +1,49 @@
+"""Run guard: finds the first particle whose fields are not finite or whose speed is too high."""
+
+import functools
+
+import warp as wp
+
+from warpsph.launching import launch
+from warpsph.model import Model, State
+from warpsph.sph.spec import Spec
+
+NO_PARTICLE = 2**31 - 1
+
+
+@functools.cache
+def _kernel(spec: Spec):
+    real, vec3, mat33 = spec.real, spec.vec3, spec.mat33
+
+    @wp.kernel(enable_backward=False, module="unique")
+    def find_bad(
+        q: wp.array(dtype=vec3),
+        v: wp.array(dtype=vec3),
+        stress: wp.array(dtype=mat33),
+        speed_limit: real,
+        first_bad: wp.array(dtype=wp.int32),
+    ):
+        a = wp.tid()
+        ok = wp.isfinite(q[a]) and wp.isfinite(v[a]) and wp.isfinite(stress[a])
+        if not ok or wp.length(v[a]) > speed_limit:
+            wp.atomic_min(first_bad, 0, a)
+
+    return find_bad
+
+
+class Guard:
+    """``first_bad(state)`` returns the lowest index of a bad owned particle, or None."""
+
+    def __init__(self, model: Model, speed_limit: float):
+        self.model = model
+        self.speed_limit = min(speed_limit, 1.0e30)
+        self.flag = wp.zeros(1, dtype=wp.int32, device=model.device)
+
+    def first_bad(self, state: State) -> int | None:
+        m = self.model
+        self.flag.fill_(NO_PARTICLE)
+        launch(_kernel(m.spec), m.particle_count,
+               [state.particle_q, state.particle_v, state.particle_stress, m.spec.real(self.speed_limit), self.flag],
+               m.device)  # fmt: skip
+        bad = int(self.flag.numpy()[0])
+        return None if bad == NO_PARTICLE else bad
