@@ -169,18 +169,14 @@ def test_linear_fields_are_exact(precision, kernel, dim, tol, query_set):
     assert max(max(w) for w in worst.values()) < tol, f"worst (interior, face, edge/corner): {worst}"
 
 
-@pytest.mark.parametrize(
-    "dim", [1, 2, pytest.param(3, marks=pytest.mark.xfail(strict=True, reason="MIN_DETERMINANT too large in 3D"))]
-)
+@pytest.mark.parametrize("dim", [1, 2, 3])
 @pytest.mark.parametrize("kernel", KERNELS)
 def test_full_step_fit_at_box_corners(kernel, dim):
     """Unperturbed box, as built at t = 0: particles at the nodes fitted from the cell centres. The
     fit must be corrected and exact at every particle, corners included (verification.md).
 
-    Known failure in 3D: a corner node sees only the octant of centres, det M ≈ 2.9e-4 <
-    MIN_DETERMINANT = 1e-3 (operators.py), so the 8 corner particles fall back to Shepard and an
-    uncorrected gradient, though cond M ≈ 10 there and the same system solved in NumPy is exact to
-    1e-14. det M scales as λ^dim (2D corner: 0.026), so one threshold cannot suit every dim."""
+    A 3D corner node sees only an octant of centres (det M ≈ 2.9e-4, cond M ≈ 10): the
+    conditioning test uses |det M|^(1/dim), so it stays corrected."""
     spec = Spec(dim=dim, kernel=kernel)
     n = CELLS[dim]
     query = lattice(spec, n, 0.0)

@@ -19,6 +19,7 @@ from warpsph.model import Model, State
 from warpsph.sph.neighbours import NeighbourList
 from warpsph.stages.boundaries import Boundaries
 from warpsph.stages.collocated import RK_TABLEAU, collocated_kernels
+from warpsph.stages.corrections import FitData, compute_fit_data
 from warpsph.stages.taylor import taylor_kernels
 
 
@@ -53,9 +54,12 @@ class Solver:
         self.virtual_stress = wp.zeros(m.virtual_total, dtype=s.mat33, device=dev)
         self.virtual_to_real = NeighbourList(s, m.extent, self.support, dev)
         self.real_to_virtual = NeighbourList(s, m.extent, self.support, dev)
+        self.real_fits = FitData(s, m.particle_total, dev)
+        self.virtual_fits = FitData(s, m.virtual_total, dev)
         self.stages = [
             Stage("ghosts", self._ghosts_two_set),
             Stage("neighbours", self._neighbours_two_set),
+            Stage("corrections", self._corrections),
             Stage("taylor_half_step", self._half_step),
             Stage("virtual_ghosts", self._virtual_ghosts),
             Stage("taylor_full_step", self._full_step),
@@ -64,6 +68,7 @@ class Solver:
 
     def _ghosts_two_set(self, si: State, so: State, t: float, dt: float) -> None:
         self.boundaries.set_time(t)
+        self.boundaries.move_planes(si.particle_q)
         self.boundaries.update_real_ghosts(si.particle_q, si.particle_v, si.particle_stress, si.particle_density)
         self.boundaries.update_virtual_ghosts(si.virtual_q, self.virtual_v, self.virtual_stress, si.virtual_density)
 
@@ -72,16 +77,27 @@ class Solver:
         self.virtual_to_real.build(si.virtual_q, m.virtual_count, si.particle_q, m.particle_total)
         self.real_to_virtual.build(si.particle_q, m.particle_count, si.virtual_q, m.virtual_total)
 
+    def _corrections(self, si: State, so: State, t: float, dt: float) -> None:
+        m = self.model
+        compute_fit_data(m, self.virtual_to_real, si.virtual_q, m.virtual_count, si.particle_q, m.particle_mass,
+                         si.particle_density, self.virtual_fits, m.virtual_ghost_source, m.virtual_ghost_planes,
+                         m.virtual_ghost_count)  # fmt: skip
+        compute_fit_data(m, self.real_to_virtual, si.particle_q, m.particle_count, si.virtual_q, m.virtual_mass,
+                         si.virtual_density, self.real_fits, m.particle_ghost_source, m.particle_ghost_planes,
+                         m.particle_ghost_count)  # fmt: skip
+
     def _half_step(self, si: State, so: State, t: float, dt: float) -> None:
         m = self.model
         real = m.spec.real
         half_step, _ = taylor_kernels(m.spec)
         nl = self.virtual_to_real
         launch(half_step, m.virtual_count,
-               [real(m.h), real(dt), m.spec.vec3(*m.gravity), nl.offsets, nl.indices, si.particle_q,
-                m.particle_mass, si.particle_density, si.particle_v, si.particle_stress, si.virtual_q,
-                si.virtual_density, m.virtual_material, m.material_lambda, m.material_shear, self.virtual_v,
-                self.virtual_stress, so.virtual_q, so.virtual_density], m.device)  # fmt: skip
+               [real(m.h), real(dt), m.spec.vec3(*m.gravity), real(m.scene.simulation.free_surface_threshold),
+                nl.offsets, nl.indices, si.particle_q, m.particle_mass, si.particle_density, si.particle_v,
+                si.particle_stress, *self.real_fits.arrays(), si.virtual_q, si.virtual_density, m.virtual_material,
+                *self.virtual_fits.arrays(),
+                m.material_lambda, m.material_shear, self.virtual_v, self.virtual_stress, so.virtual_q,
+                so.virtual_density], m.device)  # fmt: skip
 
     def _virtual_ghosts(self, si: State, so: State, t: float, dt: float) -> None:
         self.boundaries.set_time(t + 0.5 * dt)
@@ -94,10 +110,10 @@ class Solver:
         nl = self.real_to_virtual
         launch(full_step, m.particle_count,
                [real(m.h), real(dt), m.spec.vec3(*m.gravity), real(m.scene.simulation.free_surface_threshold),
-                nl.offsets, nl.indices, si.virtual_q, m.virtual_mass, si.virtual_density, self.virtual_v,
-                self.virtual_stress, si.particle_q, si.particle_v, si.particle_stress, si.particle_density,
-                m.particle_material, m.material_lambda, m.material_shear, so.particle_q, so.particle_v,
-                so.particle_stress, so.particle_density, self.surface_normal], m.device)  # fmt: skip
+                real(m.scene.simulation.artificial_viscosity), nl.offsets, nl.indices, si.virtual_q, m.virtual_mass, si.virtual_density, self.virtual_v,
+                self.virtual_stress, *self.virtual_fits.arrays()[:4], *self.real_fits.arrays(), si.particle_q, si.particle_v,
+                si.particle_stress, si.particle_density, m.particle_material, m.material_lambda, m.material_shear,
+                m.material_wave_speed, so.particle_q, so.particle_v, so.particle_stress, so.particle_density], m.device)  # fmt: skip
 
     def _prescribe(self, si: State, so: State, t: float, dt: float) -> None:
         self.boundaries.set_time(t + dt)
@@ -123,6 +139,7 @@ class Solver:
 
     def _ghosts_collocated(self, si: State, so: State, t: float, dt: float) -> None:
         self.boundaries.set_time(t)
+        self.boundaries.move_planes(si.particle_q)
         self.boundaries.update_real_ghosts(si.particle_q, si.particle_v, si.particle_stress, si.particle_density)
 
     def _neighbours_collocated(self, si: State, so: State, t: float, dt: float) -> None:

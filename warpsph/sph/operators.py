@@ -21,13 +21,14 @@ import warp as wp
 from warpsph.sph.kernels import smoothing_functions
 from warpsph.sph.spec import Spec
 
-MIN_DETERMINANT = 1.0e-3
-"""Below this det(M) (M ≈ I in the interior) the fit falls back to Shepard + uncorrected gradient."""
+MIN_MEAN_EIGENVALUE = 1.0e-2
+"""Below this |det M|^(1/dim), the geometric mean of M's eigenvalues on the used axes (≈1 inside a
+body, ≈0.07 at a 3D box corner), the fit falls back to Shepard + uncorrected gradient."""
 
 
 @functools.cache
 def operator_functions(spec: Spec):
-    """Warp functions ``fit_operator``, ``fit_weights``, ``unused_axes``, ``smallest_eigenvalue``."""
+    """Warp functions ``fit_operator``, ``fit_weights``, ``invert_correction``, ``smallest_eigenvalue``."""
     real, vec3, mat33 = spec.real, spec.vec3, spec.mat33
     W, grad_W = smoothing_functions(spec)
     mask = spec.axis_mask
@@ -37,12 +38,15 @@ def operator_functions(spec: Spec):
         real(0.0), real(0.0), real(1.0 - mask[2]),
     )  # fmt: skip
     zero = real(0.0)
-    min_det = real(MIN_DETERMINANT)
+    min_det = real(MIN_MEAN_EIGENVALUE**spec.dim)
 
     @wp.func
-    def unused_axes():
-        """Identity on the axes a scene does not use (added to M so it stays invertible)."""
-        return unused
+    def invert_correction(M: mat33):
+        """(M⁻¹, True) for a well-conditioned correction matrix, else (I, False)."""
+        Mreg = M + unused
+        if wp.abs(wp.determinant(Mreg)) > min_det:
+            return wp.inverse(Mreg), True
+        return wp.identity(3, dtype=real), False
 
     @wp.func
     def fit_operator(
@@ -69,12 +73,9 @@ def operator_functions(spec: Spec):
             wr += w * r
             g0 += g
             M += wp.outer(g, r)
-        Mreg = M + unused
-        corrected = wp.abs(wp.determinant(Mreg)) > min_det
-        Minv = wp.identity(3, dtype=real)
+        Minv, corrected = invert_correction(M)
         c = vec3(zero, zero, zero)
         if corrected:
-            Minv = wp.inverse(Mreg)
             c = wp.transpose(Minv) * wr
         den = w0 - wp.dot(c, g0)
         if den <= real(0.1) * w0:
@@ -102,4 +103,4 @@ def operator_functions(spec: Spec):
         Q, d = wp.eig3(S)
         return wp.min(d[0], wp.min(d[1], d[2]))
 
-    return fit_operator, fit_weights, unused_axes, smallest_eigenvalue
+    return fit_operator, fit_weights, invert_correction, smallest_eigenvalue

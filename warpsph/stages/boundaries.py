@@ -10,8 +10,11 @@ Each field has its own parity across a plane with outward normal n = s e_m (meth
 | slip      | normal odd, tangential even | mirrored, σ_g = RσR (shear odd, normal even)   |
 | traction  | even                        | row m odd about the traction: σ_g,mk = 2 s t̄_k − σ_mk |
 
-Particles that lie on a plane get the plane's prescribed values after every update. Velocity
-regions prescribe the velocity of the particles that started inside them.
+Particles that lie on a plane get the plane's prescribed values after every update. Fixed and slip
+planes stay where they are; traction and velocity planes are material faces and follow the mean
+position of the particles lying on them (mirroring across a plane the body has moved away from
+would put ghosts inside it). Velocity regions prescribe the velocity of the particles that
+started inside them.
 """
 
 
@@ -145,7 +148,36 @@ def _kernels(spec: Spec):
         k = load[i]
         v[particle[i]] = velocity[k] * factor[k]
 
-    return update_ghosts, prescribe_on_planes, prescribe_in_regions
+    @wp.kernel(enable_backward=False, module="unique")
+    def sum_plane_positions(
+        particle: wp.array(dtype=wp.int32),
+        planes_of: wp.array(dtype=wp.vec3i),
+        plane_axis: wp.array(dtype=wp.int32),
+        q: wp.array(dtype=vec3),
+        sums: wp.array(dtype=real),
+    ):
+        i = wp.tid()
+        planes = planes_of[i]
+        for c in range(3):
+            p = planes[c]
+            if p >= 0:
+                wp.atomic_add(sums, p, q[particle[i]][plane_axis[p]])
+
+    @wp.kernel(enable_backward=False, module="unique")
+    def move_planes(
+        plane_kind: wp.array(dtype=wp.int32),
+        initial_position: wp.array(dtype=real),
+        on_plane_count: wp.array(dtype=real),
+        sums: wp.array(dtype=real),
+        position: wp.array(dtype=real),
+    ):
+        p = wp.tid()
+        kind = plane_kind[p]
+        position[p] = initial_position[p]
+        if (kind == PLANE_TRACTION or kind == PLANE_VELOCITY) and on_plane_count[p] > real(0.0):
+            position[p] = sums[p] / on_plane_count[p]
+
+    return update_ghosts, prescribe_on_planes, prescribe_in_regions, sum_plane_positions, move_planes
 
 
 class Boundaries:
@@ -157,6 +189,14 @@ class Boundaries:
         self.plane_factor = wp.zeros(max(model.plane_count, 1), dtype=real, device=model.device)
         self.region_factor = wp.zeros(max(len(model.region_functions), 1), dtype=real, device=model.device)
         self._time = None
+        self.plane_position = wp.clone(model.plane_position)
+        """(P,) current plane coordinates [m]."""
+        self._plane_sums = wp.zeros_like(model.plane_position)
+        counts = np.zeros(model.plane_count)
+        for planes in model.constraint_planes.numpy().reshape(-1, 3):
+            for p in planes[planes >= 0]:
+                counts[p] += 1
+        self._on_plane_count = wp.array(counts, dtype=real, device=model.device)
 
     def set_time(self, t: float) -> None:
         """Evaluate every load's time function at ``t`` [s] (a no-op if already there)."""
@@ -169,15 +209,26 @@ class Boundaries:
             self.region_factor.assign(np.array([f(t) for f in m.region_functions]))
         self._time = t
 
+    def move_planes(self, q) -> None:
+        """Put traction and velocity planes at the mean position of their particles in ``q``."""
+        m = self.model
+        *_, sum_positions, move = _kernels(m.spec)
+        self._plane_sums.zero_()
+        launch(sum_positions, m.constraint_count,
+               [m.constraint_particle, m.constraint_planes, m.plane_axis, q, self._plane_sums], m.device)
+        launch(move, m.plane_count,
+               [m.plane_kind, m.plane_position, self._on_plane_count, self._plane_sums, self.plane_position],
+               m.device)  # fmt: skip
+
     def _plane_args(self):
         m = self.model
-        return [m.plane_axis, m.plane_position, m.plane_sign, m.plane_kind, m.plane_vector,
+        return [m.plane_axis, self.plane_position, m.plane_sign, m.plane_kind, m.plane_vector,
                 m.plane_extent_lo, m.plane_extent_hi, self.plane_factor]  # fmt: skip
 
     def update_real_ghosts(self, q, v, stress, density) -> None:
         """Ghost entries of the real set from their sources."""
         m = self.model
-        update_ghosts, _, _ = _kernels(m.spec)
+        update_ghosts, *_ = _kernels(m.spec)
         launch(update_ghosts, m.particle_ghost_count,
                [m.particle_count, m.particle_ghost_source, m.particle_ghost_planes, *self._plane_args(), q, v,
                 stress, density], m.device)  # fmt: skip
@@ -185,7 +236,7 @@ class Boundaries:
     def update_virtual_ghosts(self, q, v, stress, density) -> None:
         """Ghost entries of the virtual set from their sources."""
         m = self.model
-        update_ghosts, _, _ = _kernels(m.spec)
+        update_ghosts, *_ = _kernels(m.spec)
         launch(update_ghosts, m.virtual_ghost_count,
                [m.virtual_count, m.virtual_ghost_source, m.virtual_ghost_planes, *self._plane_args(), q, v,
                 stress, density], m.device)  # fmt: skip
@@ -193,7 +244,7 @@ class Boundaries:
     def prescribe(self, q, v, stress) -> None:
         """Set prescribed velocities and tractions on plane and region particles."""
         m = self.model
-        _, on_planes, in_regions = _kernels(m.spec)
+        _, on_planes, in_regions, *_ = _kernels(m.spec)
         plane_args = self._plane_args()
         launch(on_planes, m.constraint_count,
                [m.constraint_particle, m.constraint_planes, plane_args[0], *plane_args[2:], q, v, stress],

@@ -28,7 +28,7 @@ def collocated_kernels(spec: Spec):
     """``(rates, accumulate)`` kernels for ``spec``."""
     real, vec3, mat33 = spec.real, spec.vec3, spec.mat33
     W, grad_W = smoothing_functions(spec)
-    _fit, _weights, unused_axes, smallest_eigenvalue = operator_functions(spec)
+    _fit, _weights, invert_correction, smallest_eigenvalue = operator_functions(spec)
     hooke_rate, _source, split_velocity_gradient = elastic_functions(spec)
     zero = real(0.0)
 
@@ -65,10 +65,7 @@ def collocated_kernels(spec: Spec):
             g = grad_W(x - q[b], h) * (mass[b] / density[b])
             M += wp.outer(g, q[b] - x)
             g0 += g
-        Mreg = M + unused_axes()
-        Minv = wp.identity(3, dtype=real)
-        if wp.abs(wp.determinant(Mreg)) > real(1.0e-3):
-            Minv = wp.inverse(Mreg)
+        Minv, _corrected = invert_correction(M)
         va = v[a]
         sa = stress[a]
         rho = density[a]

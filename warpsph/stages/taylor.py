@@ -4,11 +4,18 @@ Half step, at the virtual points i, from the real particles' values Φⁿ = (v, 
     Φ_i^{n+½} = Φ_iⁿ + Δt/2 (∇·σ′/ρ + b,  D:d) + ΔS(Δt/2)
 Full step, at the real particles a, from the virtual points' Φ^{n+½}:
     Φ_a^{n+1} = Φ_aⁿ + Δt (∇·σ′/ρ + b,  D:d) + ΔS(Δt)
-where values and gradients come from the linear fit of :mod:`warpsph.sph.operators`, and ΔS is the
-Runge–Kutta increment of the Jaumann source. Virtual points move with their half-step velocity,
-real particles with the half-step velocity fitted at them; densities follow continuity. Both use
-the configuration at tⁿ. Real particles whose correction matrix has a small eigenvalue are surface
-particles: their normal traction is removed (traction-free surface).
+where values and velocity gradients come from the linear fit of :mod:`warpsph.sph.operators` (fit
+data from :mod:`warpsph.stages.corrections`), and ΔS is the Runge–Kutta increment of the Jaumann
+source. The stress divergence is the fit's own (exact for linear stress fields) except at points
+near a free surface (smallest correction eigenvalue below the scene's threshold), where it is the
+negative adjoint of the gradient fits of the sources, −Σ_b V_b σ_b (φ_b − ψ_b e_b) with the
+weights of the point in b's fit. That weak form balances stress power and kinetic energy and makes
+the surface traction-free without a closure of its own: a one-sided update of surface particles
+(with the normal traction projected out, tried first) grew without bound, while the weak form used
+everywhere is not consistent for a uniform stress on a disordered lattice and broke down under
+large stress (a column compressed by 1 MPa). Virtual points move
+with their half-step velocity, real particles with the half-step velocity fitted at them; densities
+follow continuity. Both use the configuration at tⁿ.
 """
 
 
@@ -17,6 +24,7 @@ import functools
 import warp as wp
 
 from warpsph.physics.elastic import elastic_functions
+from warpsph.sph.kernels import smoothing_functions
 from warpsph.sph.operators import operator_functions
 from warpsph.sph.spec import Spec
 
@@ -25,7 +33,8 @@ from warpsph.sph.spec import Spec
 def taylor_kernels(spec: Spec):
     """``(half_step, full_step)`` kernels for ``spec``."""
     real, vec3, mat33 = spec.real, spec.vec3, spec.mat33
-    fit_operator, fit_weights, _unused, smallest_eigenvalue = operator_functions(spec)
+    _fit, fit_weights, _unused, _eig = operator_functions(spec)
+    _W, grad_W = smoothing_functions(spec)
     hooke_rate, source_increment, split_velocity_gradient = elastic_functions(spec)
     zero, half = real(0.0), real(0.5)
 
@@ -33,15 +42,17 @@ def taylor_kernels(spec: Spec):
     def fit_fields(
         x: vec3, start: int, end: int, nbr: wp.array(dtype=wp.int32), xs: wp.array(dtype=vec3),
         ms: wp.array(dtype=real), rhos: wp.array(dtype=real), vs: wp.array(dtype=vec3),
-        sigmas: wp.array(dtype=mat33), h: real,
+        sigmas: wp.array(dtype=mat33), h: real, c: vec3, inv_den: real, Minv: mat33, e: vec3,
+        src_c: wp.array(dtype=vec3), src_inv_den: wp.array(dtype=real), src_minv: wp.array(dtype=mat33),
+        src_e: wp.array(dtype=vec3), weak: bool,
     ):  # fmt: skip
-        """Velocity, stress, velocity gradient G[k,j] = ∂v_j/∂x_k and ∇·σ fitted at x, plus the
-        correction matrix M and the vector e (−e is along the outward surface normal)."""
-        c, inv_den, Minv, e, M, corrected = fit_operator(x, start, end, nbr, xs, ms, rhos, h)
+        """Velocity, stress, velocity gradient G[k,j] = ∂v_j/∂x_k and stress divergence fitted at x
+        from the sources; with ``weak`` the divergence is the negative adjoint of the sources' fits."""
         v = vec3(zero, zero, zero)
         s = mat33(zero)
         G = mat33(zero)
         div = vec3(zero, zero, zero)
+        surface_sum = vec3(zero, zero, zero)
         for k in range(start, end):
             b = nbr[k]
             vol = ms[b] / rhos[b]
@@ -50,15 +61,22 @@ def taylor_kernels(spec: Spec):
             s += (vol * psi) * sigmas[b]
             G += wp.outer(vol * phi, vs[b])
             div += sigmas[b] * (vol * phi)
+            if weak:
+                psi_b, phi_b = fit_weights(x - xs[b], h, src_c[b], src_inv_den[b], src_minv[b])
+                surface_sum += vol * (psi_b * src_e[b] - phi_b)
         G -= wp.outer(e, v)
         div -= s * e
-        return v, s, G, div, M, e
+        if weak and wp.length(e) > zero:
+            n = -wp.normalize(e)
+            div += (s * n) * wp.dot(surface_sum, n)
+        return v, s, G, div
 
     @wp.kernel(enable_backward=False, module="unique")
     def half_step(
         h: real,
         dt: real,
         gravity: vec3,
+        surface_threshold: real,
         offsets: wp.array(dtype=wp.int32),
         nbr: wp.array(dtype=wp.int32),
         real_q: wp.array(dtype=vec3),
@@ -66,9 +84,19 @@ def taylor_kernels(spec: Spec):
         real_density: wp.array(dtype=real),
         real_v: wp.array(dtype=vec3),
         real_stress: wp.array(dtype=mat33),
+        real_fit_c: wp.array(dtype=vec3),
+        real_fit_inv_den: wp.array(dtype=real),
+        real_fit_minv: wp.array(dtype=mat33),
+        real_fit_e: wp.array(dtype=vec3),
+        real_fit_lambda: wp.array(dtype=real),
         virt_q: wp.array(dtype=vec3),
         virt_density: wp.array(dtype=real),
         virt_material: wp.array(dtype=wp.int32),
+        virt_fit_c: wp.array(dtype=vec3),
+        virt_fit_inv_den: wp.array(dtype=real),
+        virt_fit_minv: wp.array(dtype=mat33),
+        virt_fit_e: wp.array(dtype=vec3),
+        virt_fit_lambda: wp.array(dtype=real),
         lam: wp.array(dtype=real),
         shear: wp.array(dtype=real),
         virt_v_half: wp.array(dtype=vec3),
@@ -78,8 +106,10 @@ def taylor_kernels(spec: Spec):
     ):
         i = wp.tid()
         x = virt_q[i]
-        v, s, G, div, M, e = fit_fields(x, offsets[i], offsets[i + 1], nbr, real_q, real_mass, real_density,
-                                        real_v, real_stress, h)  # fmt: skip
+        v, s, G, div = fit_fields(x, offsets[i], offsets[i + 1], nbr, real_q, real_mass, real_density, real_v,
+                                  real_stress, h, virt_fit_c[i], virt_fit_inv_den[i], virt_fit_minv[i],
+                                  virt_fit_e[i], real_fit_c, real_fit_inv_den, real_fit_minv, real_fit_e,
+                                  virt_fit_lambda[i] < surface_threshold)  # fmt: skip
         d, spin = split_velocity_gradient(G)
         mat = virt_material[i]
         rho = virt_density[i]
@@ -97,6 +127,7 @@ def taylor_kernels(spec: Spec):
         dt: real,
         gravity: vec3,
         surface_threshold: real,
+        alpha: real,
         offsets: wp.array(dtype=wp.int32),
         nbr: wp.array(dtype=wp.int32),
         virt_q: wp.array(dtype=vec3),
@@ -104,6 +135,15 @@ def taylor_kernels(spec: Spec):
         virt_density: wp.array(dtype=real),
         virt_v_half: wp.array(dtype=vec3),
         virt_stress_half: wp.array(dtype=mat33),
+        virt_fit_c: wp.array(dtype=vec3),
+        virt_fit_inv_den: wp.array(dtype=real),
+        virt_fit_minv: wp.array(dtype=mat33),
+        virt_fit_e: wp.array(dtype=vec3),
+        real_fit_c: wp.array(dtype=vec3),
+        real_fit_inv_den: wp.array(dtype=real),
+        real_fit_minv: wp.array(dtype=mat33),
+        real_fit_e: wp.array(dtype=vec3),
+        real_fit_lambda: wp.array(dtype=real),
         q: wp.array(dtype=vec3),
         v: wp.array(dtype=vec3),
         stress: wp.array(dtype=mat33),
@@ -111,28 +151,36 @@ def taylor_kernels(spec: Spec):
         material: wp.array(dtype=wp.int32),
         lam: wp.array(dtype=real),
         shear: wp.array(dtype=real),
+        wave_speed: wp.array(dtype=real),
         q_out: wp.array(dtype=vec3),
         v_out: wp.array(dtype=vec3),
         stress_out: wp.array(dtype=mat33),
         density_out: wp.array(dtype=real),
-        surface_normal: wp.array(dtype=vec3),
     ):
         a = wp.tid()
         x = q[a]
-        v_half, s_half, G, div, M, e = fit_fields(x, offsets[a], offsets[a + 1], nbr, virt_q, virt_mass,
-                                                  virt_density, virt_v_half, virt_stress_half, h)  # fmt: skip
+        v_half, s_half, G, div = fit_fields(x, offsets[a], offsets[a + 1], nbr, virt_q, virt_mass, virt_density,
+                                            virt_v_half, virt_stress_half, h, real_fit_c[a], real_fit_inv_den[a],
+                                            real_fit_minv[a], real_fit_e[a], virt_fit_c, virt_fit_inv_den,
+                                            virt_fit_minv, virt_fit_e, real_fit_lambda[a] < surface_threshold)  # fmt: skip
         d, spin = split_velocity_gradient(G)
         mat = material[a]
         rho = density[a]
         s = stress[a]
         s_new = s + dt * hooke_rate(d, lam[mat], shear[mat]) + source_increment(s, spin, dt)
-        normal = vec3(zero, zero, zero)
-        if smallest_eigenvalue(M) < surface_threshold and wp.length(e) > zero:
-            normal = -wp.normalize(e)
-            t = s_new * normal
-            s_new = s_new - wp.outer(t, normal) - wp.outer(normal, t) + wp.dot(normal, t) * wp.outer(normal, normal)
-        surface_normal[a] = normal
-        v_out[a] = v[a] + dt * (div / rho + gravity)
+        visc = vec3(zero, zero, zero)
+        if alpha > zero:
+            va = v[a]
+            ca = wave_speed[mat]
+            for k in range(offsets[a], offsets[a + 1]):
+                i = nbr[k]
+                xai = x - virt_q[i]
+                vr = wp.dot(va - virt_v_half[i], xai)
+                if vr < zero:
+                    mu = h * vr / (wp.dot(xai, xai) + real(0.01) * h * h)
+                    rbar = half * (rho + virt_density[i])
+                    visc += (virt_mass[i] * alpha * ca * mu / rbar) * grad_W(xai, h)
+        v_out[a] = v[a] + dt * (div / rho + gravity + visc)
         stress_out[a] = s_new
         q_out[a] = x + dt * v_half
         density_out[a] = rho * wp.exp(-dt * wp.trace(d))

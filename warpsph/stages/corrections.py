@@ -1,0 +1,114 @@
+"""Correction stage: the linear-fit data of every point of both sets, computed once per step.
+
+For each query point (virtual points fitted from real particles, real particles fitted from
+virtual points) it stores c, 1/den, M⁻¹ and e of :mod:`warpsph.sph.operators` and the smallest
+eigenvalue λ of the correction matrix (surface detection: λ < threshold). Ghost points get their
+source's data reflected across their planes (c → Rc, e → Re, M⁻¹ → R M⁻¹ R), so sums over
+ghosts see the same operator as over owned points.
+"""
+
+import functools
+
+import warp as wp
+
+from warpsph.launching import launch
+from warpsph.model import Model
+from warpsph.sph.neighbours import NeighbourList
+from warpsph.sph.operators import operator_functions
+from warpsph.sph.spec import Spec
+
+
+@functools.cache
+def _kernels(spec: Spec):
+    real, vec3, mat33 = spec.real, spec.vec3, spec.mat33
+    fit_operator, _weights, _unused, smallest_eigenvalue = operator_functions(spec)
+
+    @wp.kernel(enable_backward=False, module="unique")
+    def compute_fits(
+        h: real,
+        offsets: wp.array(dtype=wp.int32),
+        nbr: wp.array(dtype=wp.int32),
+        q: wp.array(dtype=vec3),
+        src_q: wp.array(dtype=vec3),
+        src_mass: wp.array(dtype=real),
+        src_density: wp.array(dtype=real),
+        fit_c: wp.array(dtype=vec3),
+        fit_inv_den: wp.array(dtype=real),
+        fit_minv: wp.array(dtype=mat33),
+        fit_e: wp.array(dtype=vec3),
+        fit_lambda: wp.array(dtype=real),
+    ):
+        i = wp.tid()
+        c, inv_den, Minv, e, M, corrected = fit_operator(q[i], offsets[i], offsets[i + 1], nbr, src_q, src_mass,
+                                                         src_density, h)  # fmt: skip
+        fit_c[i] = c
+        fit_inv_den[i] = inv_den
+        fit_minv[i] = Minv
+        fit_e[i] = e
+        fit_lambda[i] = smallest_eigenvalue(M)
+
+    @wp.kernel(enable_backward=False, module="unique")
+    def mirror_fits(
+        n_owned: int,
+        source: wp.array(dtype=wp.int32),
+        chain: wp.array(dtype=wp.vec3i),
+        plane_axis: wp.array(dtype=wp.int32),
+        fit_c: wp.array(dtype=vec3),
+        fit_inv_den: wp.array(dtype=real),
+        fit_minv: wp.array(dtype=mat33),
+        fit_e: wp.array(dtype=vec3),
+        fit_lambda: wp.array(dtype=real),
+    ):
+        g = wp.tid()
+        src = source[g]
+        c = fit_c[src]
+        e = fit_e[src]
+        Minv = fit_minv[src]
+        planes = chain[g]
+        for k in range(3):
+            p = planes[k]
+            if p >= 0:
+                m = plane_axis[p]
+                c[m] = -c[m]
+                e[m] = -e[m]
+                for j in range(3):
+                    if j != m:
+                        Minv[m, j] = -Minv[m, j]
+                        Minv[j, m] = -Minv[j, m]
+        fit_c[n_owned + g] = c
+        fit_e[n_owned + g] = e
+        fit_minv[n_owned + g] = Minv
+        fit_inv_den[n_owned + g] = fit_inv_den[src]
+        fit_lambda[n_owned + g] = fit_lambda[src]
+
+    return compute_fits, mirror_fits
+
+
+class FitData:
+    """Per-point fit data of one particle set (owned points and ghosts)."""
+
+    def __init__(self, spec: Spec, count: int, device):
+        self.c = wp.zeros(count, dtype=spec.vec3, device=device)
+        """(n,) vec3 c = M⁻ᵀ Σ V W r [m]."""
+        self.inv_den = wp.zeros(count, dtype=spec.real, device=device)
+        """(n,) 1 / (Σ V W − c·Σ V ∇W) [-]."""
+        self.minv = wp.zeros(count, dtype=spec.mat33, device=device)
+        """(n,) mat33 inverse correction matrix [-]."""
+        self.e = wp.zeros(count, dtype=spec.vec3, device=device)
+        """(n,) vec3 e = M⁻¹ Σ V ∇W [1/m]; −e points out of a free surface."""
+        self.smallest_eigenvalue = wp.zeros(count, dtype=spec.real, device=device)
+        """(n,) smallest eigenvalue of the correction matrix [-] (≈1 inside, ≈0.5 on a surface)."""
+
+    def arrays(self) -> list:
+        return [self.c, self.inv_den, self.minv, self.e, self.smallest_eigenvalue]
+
+
+def compute_fit_data(model: Model, neighbours: NeighbourList, q, n_owned: int, src_q, src_mass, src_density,
+                     fits: FitData, ghost_source, ghost_planes, n_ghosts: int) -> None:  # fmt: skip
+    """Fill ``fits`` for the owned query points ``q[:n_owned]`` and mirror them onto their ghosts."""
+    compute_fits, mirror_fits = _kernels(model.spec)
+    launch(compute_fits, n_owned,
+           [model.spec.real(model.h), neighbours.offsets, neighbours.indices, q, src_q, src_mass, src_density,
+            *fits.arrays()], model.device)  # fmt: skip
+    launch(mirror_fits, n_ghosts, [n_owned, ghost_source, ghost_planes, model.plane_axis, *fits.arrays()],
+           model.device)
