@@ -34,6 +34,25 @@ def _parser() -> argparse.ArgumentParser:
     return p
 
 
+def _init_warp():
+    """Import and initialise Warp with its start-up chatter silenced: the native "no CUDA driver"
+    warning goes to stderr, which a CPU run keeps for its own one-line errors."""
+    import os
+
+    import warp as wp
+
+    wp.config.log_level = wp.LOG_WARNING
+    saved = os.dup(2)
+    try:
+        with open(os.devnull, "w") as null:
+            os.dup2(null.fileno(), 2)
+            wp.init()
+    finally:
+        os.dup2(saved, 2)
+        os.close(saved)
+    return wp
+
+
 def _fail(code: int, message: str) -> int:
     print(f"warpsph: error: {message}", file=sys.stderr)
     return code
@@ -53,9 +72,7 @@ def _run(args) -> int:
     scene = load_scene(args.scene)
     if args.end_time is not None and not args.end_time > 0:
         raise SceneError("--end-time", f"must be > 0, got {args.end_time}")
-    import warp as wp
-
-    wp.config.quiet = True
+    wp = _init_warp()
     if args.device.startswith("cuda"):
         if not wp.is_cuda_available():
             return _fail(EXIT_BAD_INPUT, f"--device {args.device}: no CUDA device is available")

@@ -58,3 +58,29 @@ def step_wave_metrics(times, profiles, *, height: float, speed: float, sigma0: f
     exact = (y > front).astype(float)
     l2 = float(np.sqrt(np.mean((r - exact) ** 2)))
     return WaveMetrics(front_speed, plateau, overshoot, l2)
+
+
+def sample_column_stress(scene, t_end: float, n_frames: int = 12, device: str = "cpu"):
+    """Run ``scene`` to ``t_end`` [s] in memory and return (times, [(y, σ_yy)] profiles) at about
+    ``n_frames`` evenly spaced steps, for :func:`step_wave_metrics`."""
+    from warpsph.builder import build
+    from warpsph.solver import Solver
+
+    model, state = build(scene, device=device)
+    scratch = model.state()
+    scratch.assign(state)
+    solver = Solver(model)
+    dt = scene.time_step
+    n_end = int(np.ceil(t_end / dt - 1e-9))
+    every = max(1, n_end // n_frames)
+    n = model.particle_count
+    times, profiles = [], []
+    for k in range(n_end):
+        solver.step(state, scratch, k * dt, dt)
+        state, scratch = scratch, state
+        if (k + 1) % every == 0:
+            q = state.particle_q.numpy()[:n].astype(np.float64)
+            s = state.particle_stress.numpy()[:n, 1, 1].astype(np.float64)
+            times.append((k + 1) * dt)
+            profiles.append(column_profile(q, s, scene.simulation.dx))
+    return times, profiles

@@ -1,0 +1,75 @@
+"""The command line: validate, run, bad input (exit 2, one line) and blow-ups (exit 1, output kept)."""
+
+import subprocess
+import sys
+
+import h5py
+import pytest
+
+from warpsph.cli import main
+from warpsph.io import load_checkpoint, load_results
+
+
+def warpsph(*args, cwd=None):
+    return subprocess.run([sys.executable, "-m", "warpsph", *map(str, args)], capture_output=True, text=True,
+                          cwd=cwd, timeout=600)  # fmt: skip
+
+
+def test_validate_shipped_scene(scenes_dir, capsys):
+    assert main(["validate", str(scenes_dir / "wave_column.toml")]) == 0
+    assert "valid scene 'wave_column'" in capsys.readouterr().out
+
+
+@pytest.mark.parametrize("text, key", [
+    ("[simulation]\ncourrant = 0.5\n", "simulation.courrant"),
+    ("[simulation]\ndx = 0.1\n[materials.soil]\npoisson_ratio = 0.5\n"
+     "[[bodies]]\nmaterial = 'soil'\nmin = [0, 0]\nmax = [1, 1]\n", "materials.soil.poisson_ratio"),
+    ("[simulation\n", "TOML"),
+])
+def test_bad_scene_is_one_line_and_exit_2(tmp_path, text, key):
+    path = tmp_path / "bad.toml"
+    path.write_text(text)
+    for command in ("validate", "run"):
+        result = warpsph(command, path, "--out", tmp_path / "out") if command == "run" else warpsph(command, path)
+        assert result.returncode == 2
+        lines = result.stderr.strip().splitlines()
+        assert len(lines) == 1 and key in lines[0] and "Traceback" not in result.stderr
+
+
+def test_missing_scene_file(tmp_path):
+    result = warpsph("validate", tmp_path / "nope.toml")
+    assert result.returncode == 2 and "Traceback" not in result.stderr
+
+
+def test_run_writes_results(scenes_dir, tmp_path):
+    result = warpsph("run", scenes_dir / "wave_column.toml", "--out", tmp_path, "--end-time", "0.006",
+                     "--no-progress")  # fmt: skip
+    assert result.returncode == 0, result.stderr
+    assert "particle-steps/s" in result.stdout and "compile" in result.stdout
+    results = load_results(tmp_path / "results.h5")
+    assert results.attrs["format"] == "warpsph-results" and len(results) >= 2
+    assert results.scene_text == (scenes_dir / "wave_column.toml").read_text()
+
+
+def test_help_shows_defaults():
+    result = warpsph("run", "--help")
+    assert result.returncode == 0 and "--end-time" in result.stdout and "default: cpu" in result.stdout
+
+
+def test_blow_up_stops_with_message_and_keeps_output(scenes_dir, tmp_path):
+    """Courant 2 is beyond the scheme's limit: the guard stops the run within a step."""
+    scene = (scenes_dir / "wave_column.toml").read_text().replace("courant = 0.5", "courant = 2.0")
+    scene = scene.replace("frame_interval = 0.005", "frame_interval = 0.0036")
+    path = tmp_path / "unstable.toml"
+    path.write_text(scene)
+    result = warpsph("run", path, "--out", tmp_path / "out", "--no-progress", "--end-time", "1.0")
+    assert result.returncode == 1
+    lines = result.stderr.strip().splitlines()
+    assert len(lines) == 1 and "unstable at step" in lines[0] and "particle" in lines[0]
+    step = int(lines[0].split("unstable at step ")[1].split(",")[0])
+    checkpoint = load_checkpoint(tmp_path / "out" / "checkpoint.h5")
+    assert 0 <= checkpoint.step < step
+    results = load_results(tmp_path / "out" / "results.h5")
+    assert len(results) >= 1 and results.steps[-1] < step
+    with h5py.File(tmp_path / "out" / "results.h5", "r") as f:
+        assert f.attrs["format"] == "warpsph-results"

@@ -1,0 +1,38 @@
+"""Only the effects a scene calls for: a dry elastic scene allocates no pore-pressure or plastic
+array and launches no projection or plasticity kernel."""
+
+import numpy as np
+
+from warpsph.builder import build
+from warpsph.launching import record_launches
+from warpsph.scene_toml import load_scene
+from warpsph.solver import Solver
+
+FORBIDDEN = ("pressure", "projection", "pore", "plastic", "yield")
+
+
+def test_dry_elastic_scene_runs_no_pore_water_or_plasticity(scenes_dir):
+    scene = load_scene(scenes_dir / "wave_column.toml")
+    assert not scene.effects.pore_water and not scene.effects.plasticity
+    model, state = build(scene)
+    allocated = list(state.arrays()) + [k for k, v in vars(model).items() if hasattr(v, "dtype")]
+    assert not [name for name in allocated if any(word in name for word in FORBIDDEN)]
+    solver = Solver(model)
+    assert not [s for s in solver.stage_names if any(word in s for word in FORBIDDEN)]
+    scratch = model.state()
+    with record_launches() as launched:
+        solver.step(state, scratch, 0.0, scene.time_step)
+    assert launched, "the recorder saw no launch"
+    assert not [k for k in launched if any(word in k.lower() for word in FORBIDDEN)]
+    assert np.isfinite(scratch.particle_stress.numpy()).all()
+
+
+def test_schemes_have_their_own_stages(scenes_dir):
+    scene = load_scene(scenes_dir / "wave_column.toml")
+    two_set = Solver(build(scene)[0]).stage_names
+    scene.simulation.scheme = "collocated"
+    model, state = build(scene)
+    assert state.virtual_q is None and model.virtual_count == 0
+    collocated = Solver(model).stage_names
+    assert "taylor_half_step" in two_set and "taylor_half_step" not in collocated
+    assert "runge_kutta" in collocated and "runge_kutta" not in two_set
