@@ -166,8 +166,24 @@ class Body:
     """Initial effective stress, Voigt order xx, yy, zz, yz, xz, xy [Pa, tension positive]."""
 
 
+class _OnPlane:
+    """Shared by the plane-based records: ``axis`` ("x"|"y"|"z") and ``side`` ("min"|"max")."""
+
+    axis: str
+    side: str
+
+    @property
+    def axis_index(self) -> int:
+        return AXES.index(self.axis)
+
+    @property
+    def outward_sign(self) -> float:
+        """+1 if the outward normal points along +axis (side "max"), −1 otherwise."""
+        return 1.0 if self.side == "max" else -1.0
+
+
 @dataclass
-class Boundary:
+class Boundary(_OnPlane):
     """A planar boundary perpendicular to an axis, closed by mirror ghost particles.
 
     kind: "fixed" (v = 0), "slip" (v·n = 0, no shear traction), "symmetry" (same as slip),
@@ -184,18 +200,9 @@ class Boundary:
     velocity: tuple[float, float, float] = (0.0, 0.0, 0.0)
     time_function: TimeFunction = field(default_factory=TimeFunction)
 
-    @property
-    def axis_index(self) -> int:
-        return AXES.index(self.axis)
-
-    @property
-    def outward_sign(self) -> float:
-        """+1 if the outward normal points along +axis (side "max"), −1 otherwise."""
-        return 1.0 if self.side == "max" else -1.0
-
 
 @dataclass
-class Load:
+class Load(_OnPlane):
     """A prescribed traction on a planar face or a prescribed velocity of a region.
 
     kind "traction": the face ``axis`` = ``position`` on ``side`` (as for :class:`Boundary`)
@@ -214,14 +221,6 @@ class Load:
     region: Region | None = None
     velocity: tuple[float, float, float] = (0.0, 0.0, 0.0)
     time_function: TimeFunction = field(default_factory=TimeFunction)
-
-    @property
-    def axis_index(self) -> int:
-        return AXES.index(self.axis)
-
-    @property
-    def outward_sign(self) -> float:
-        return 1.0 if self.side == "max" else -1.0
 
 
 @dataclass

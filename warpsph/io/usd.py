@@ -15,6 +15,8 @@ from pathlib import Path
 
 import numpy as np
 
+from warpsph.fields import mean_stress, von_mises, voigt_to_tensor
+
 PRIM_PATH = "/Particles"
 TIME_CODES_PER_SECOND = 24.0  # playback rate in frames per wall-clock second; not simulation time
 _MANIFEST = "manifest.usdc"
@@ -27,12 +29,6 @@ def _pxr():
     except ImportError as e:
         raise ImportError("USD output needs the usd-core package: pip install usd-core") from e
     return Sdf, Usd, UsdGeom, Vt
-
-
-def _von_mises(s: np.ndarray) -> np.ndarray:
-    """Von Mises equivalent stress sqrt(3 J2) of Voigt (xx,yy,zz,yz,xz,xy) rows."""
-    xx, yy, zz, yz, xz, xy = s.T
-    return np.sqrt(0.5 * ((xx - yy) ** 2 + (yy - zz) ** 2 + (zz - xx) ** 2) + 3.0 * (yz**2 + xz**2 + xy**2))
 
 
 class UsdParticleCache:
@@ -88,8 +84,9 @@ class UsdParticleCache:
             if value.shape[:1] != (n,) or value.shape[1:] not in ((), (3,), (6,)):
                 raise ValueError(f"primvar {name!r}: shape {value.shape}, expected ({n},), ({n},3) or ({n},6)")
             if value.shape[1:] == (6,):
-                out[f"{name}_mean"] = value[:, :3].mean(axis=1)
-                out[f"{name}_von_mises"] = _von_mises(value)
+                tensor = voigt_to_tensor(value)
+                out[f"{name}_mean"] = mean_stress(tensor)
+                out[f"{name}_von_mises"] = von_mises(tensor)
             else:
                 out[name] = value
         return out
