@@ -38,6 +38,7 @@ def operator_functions(spec: Spec):
         real(0.0), real(0.0), real(1.0 - mask[2]),
     )  # fmt: skip
     zero = real(0.0)
+    half = real(0.5)
     min_det = real(MIN_MEAN_EIGENVALUE**spec.dim)
 
     @wp.func
@@ -98,9 +99,21 @@ def operator_functions(spec: Spec):
 
     @wp.func
     def smallest_eigenvalue(M: mat33):
-        """Smallest eigenvalue of sym(M) + unused axes (≈1 inside a body, ≈0.5 on its surface)."""
+        """Smallest eigenvalue of sym(M) + unused axes (≈1 inside a body, ≈0.5 on its surface),
+        by the closed form for symmetric 3×3 matrices (trigonometric, no iteration)."""
         S = real(0.5) * (M + wp.transpose(M)) + unused
-        Q, d = wp.eig3(S)
-        return wp.min(d[0], wp.min(d[1], d[2]))
+        off = S[0, 1] * S[0, 1] + S[0, 2] * S[0, 2] + S[1, 2] * S[1, 2]
+        q = wp.trace(S) / real(3.0)
+        d0 = S[0, 0] - q
+        d1 = S[1, 1] - q
+        d2 = S[2, 2] - q
+        p2 = d0 * d0 + d1 * d1 + d2 * d2 + real(2.0) * off
+        if p2 <= real(1.0e-30):
+            return wp.min(S[0, 0], wp.min(S[1, 1], S[2, 2]))
+        p = wp.sqrt(p2 / real(6.0))
+        B = (S - q * wp.identity(3, dtype=real)) / p
+        r = wp.clamp(wp.determinant(B) * half, real(-1.0), real(1.0))
+        phi = wp.acos(r) / real(3.0)
+        return q + real(2.0) * p * wp.cos(phi + real(2.0943951023931953))
 
     return fit_operator, fit_weights, invert_correction, smallest_eigenvalue
