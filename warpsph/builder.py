@@ -129,11 +129,16 @@ def build(scene: Scene, device: str = "cpu", precision: str | None = None) -> tu
     constrained = np.nonzero(counts)[0].astype(np.int32)
 
     vel_loads = [ld for ld in scene.loads if ld.kind == "velocity"]
-    region_particle, region_load = [], []
-    for k, ld in enumerate(vel_loads):
-        inside = np.nonzero(ld.region.contains(real_pts, tol))[0]
-        region_particle.extend(inside.tolist())
-        region_load.extend([k] * len(inside))
+    def in_regions(points):
+        index, load = [], []
+        for k, ld in enumerate(vel_loads):
+            inside = np.nonzero(ld.region.contains(points, tol))[0]
+            index.extend(inside.tolist())
+            load.extend([k] * len(inside))
+        return np.array(index, np.int32), np.array(load, np.int32)
+
+    region_particle, region_load = in_regions(real_pts)
+    region_virtual, region_virtual_load = in_regions(virt_pts)
 
     all_pts = np.concatenate([real_pts, g_pos, virt_pts, vg_pos])
     extent = all_pts.max(axis=0) - all_pts.min(axis=0)
@@ -193,8 +198,10 @@ def build(scene: Scene, device: str = "cpu", precision: str | None = None) -> tu
         constraint_particle=arr(constrained, wp.int32),
         constraint_planes=arr(on_plane[constrained], wp.vec3i, (0, 3)),
         region_count=len(region_particle),
-        region_particle=arr(np.array(region_particle, np.int32), wp.int32),
-        region_load=arr(np.array(region_load, np.int32), wp.int32),
+        region_particle=arr(region_particle, wp.int32),
+        region_load=arr(region_load, wp.int32),
+        region_virtual=arr(region_virtual, wp.int32),
+        region_virtual_load=arr(region_virtual_load, wp.int32),
         region_velocity=arr(np.array([ld.velocity for ld in vel_loads], npr), vec3, (0, 3)),
         region_functions=[ld.time_function for ld in vel_loads],
         particle_ids=np.arange(n, dtype=np.int64),

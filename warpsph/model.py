@@ -96,6 +96,10 @@ class Model:
     """(R,) int32 particles whose velocity is prescribed."""
     region_load: wp.array
     """(R,) int32 index of the velocity load that drives it."""
+    region_virtual: wp.array
+    """(RV,) int32 virtual points whose half-step velocity is prescribed (two-set scheme)."""
+    region_virtual_load: wp.array
+    """(RV,) int32 index of the velocity load that drives it."""
     region_velocity: wp.array
     """(n_velocity_loads,) vec3 [m/s] before the time factor."""
     region_functions: list

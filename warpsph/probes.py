@@ -2,7 +2,8 @@
 
 Probes are Lagrangian: a "point" probe follows the material particle nearest its point at the
 start, a "region_mean" probe the particles that start inside its region; a "reaction" probe sums
-the traction σ·n over the particles lying on a boundary plane, each standing for an area V/Δx.
+the traction σ·n over the particles lying on a boundary plane, each standing for an area V/Δx,
+halved for every other plane it also lies on (an edge particle's area is half outside the body).
 """
 
 from __future__ import annotations
@@ -44,8 +45,12 @@ class Probes:
         self.selection: list[np.ndarray] = []
         self.normal: list[np.ndarray | None] = []
         self._mass = model.particle_mass.numpy()[: model.particle_count]
+        self.area_factor: list[np.ndarray | None] = []
+        on_planes = {}
+        for a, planes in zip(model.constraint_particle.numpy(), model.constraint_planes.numpy().reshape(-1, 3)):
+            on_planes[int(a)] = int(np.count_nonzero(planes >= 0))
         for p in self.probes:
-            normal = None
+            normal = factor = None
             if p.kind == "point":
                 sel = np.array([np.argmin(np.sum((x0 - np.asarray(p.point)) ** 2, axis=1))])
             elif p.kind == "region_mean":
@@ -57,8 +62,10 @@ class Probes:
                 sel = np.nonzero(np.abs(x0[:, axis] - position) <= tol)[0]
                 normal = np.zeros(3)
                 normal[axis] = float(model.plane_sign.numpy()[plane])
+                factor = 0.5 ** np.array([on_planes.get(int(a), 1) - 1 for a in sel])
             self.selection.append(sel)
             self.normal.append(normal)
+            self.area_factor.append(factor)
 
     @property
     def names(self) -> list[str]:
@@ -68,10 +75,10 @@ class Probes:
         """Probe values from host fields position (N,3), velocity (N,3), stress (N,3,3), density (N,)."""
         out = {}
         x0 = self.model.particle_x0
-        for p, sel, normal in zip(self.probes, self.selection, self.normal):
+        for p, sel, normal, factor in zip(self.probes, self.selection, self.normal, self.area_factor):
             if p.kind == "reaction":
                 traction = fields["stress"][sel] @ normal
-                area = self._mass[sel] / fields["density"][sel] / self.model.dx
+                area = factor * self._mass[sel] / fields["density"][sel] / self.model.dx
                 out[p.name] = float(np.sum(traction[:, _COMPONENT[p.field]] * area))
             else:
                 values = field_values(p.field, {k: v[sel] for k, v in fields.items()}, x0[sel])

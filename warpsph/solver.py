@@ -101,6 +101,7 @@ class Solver:
 
     def _virtual_ghosts(self, si: State, so: State, t: float, dt: float) -> None:
         self.boundaries.set_time(t + 0.5 * dt)
+        self.boundaries.prescribe_virtual(self.virtual_v)
         self.boundaries.update_virtual_ghosts(si.virtual_q, self.virtual_v, self.virtual_stress, si.virtual_density)
 
     def _full_step(self, si: State, so: State, t: float, dt: float) -> None:

@@ -13,8 +13,9 @@ Each field has its own parity across a plane with outward normal n = s e_m (meth
 Particles that lie on a plane get the plane's prescribed values after every update. Fixed and slip
 planes stay where they are; traction and velocity planes are material faces and follow the mean
 position of the particles lying on them (mirroring across a plane the body has moved away from
-would put ghosts inside it). Velocity regions prescribe the velocity of the particles that
-started inside them.
+would put ghosts inside it). Velocity regions prescribe the velocity of the particles and virtual points that
+started inside them (a rigid piston in both sets: driving the real particles alone excites the
+odd-even mode the virtual points cannot see).
 """
 
 
@@ -240,6 +241,13 @@ class Boundaries:
         launch(update_ghosts, m.virtual_ghost_count,
                [m.virtual_count, m.virtual_ghost_source, m.virtual_ghost_planes, *self._plane_args(), q, v,
                 stress, density], m.device)  # fmt: skip
+
+    def prescribe_virtual(self, v_half) -> None:
+        """Set the half-step velocity of the virtual points inside velocity regions."""
+        m = self.model
+        _, _, in_regions, *_ = _kernels(m.spec)
+        launch(in_regions, len(m.region_virtual),
+               [m.region_virtual, m.region_virtual_load, m.region_velocity, self.region_factor, v_half], m.device)
 
     def prescribe(self, q, v, stress) -> None:
         """Set prescribed velocities and tractions on plane and region particles."""
