@@ -85,11 +85,11 @@ class Simulation:
     precision: str = "float64"
     """Floating-point type of the particle fields: "float64" or "float32"."""
     artificial_viscosity: float = 0.0
-    """Monaghan artificial viscosity coefficient α (collocated scheme only; 0 disables it)."""
+    """Monaghan artificial viscosity coefficient α (0 disables it), in both schemes."""
     velocity_limit: float = math.inf
     """Run guard: the run stops if any particle speed exceeds this [m/s]."""
     free_surface_threshold: float = 0.75
-    """Particles whose smallest correction-matrix eigenvalue is below this are surface particles."""
+    """Points whose smallest correction-matrix eigenvalue is below this form the free-surface band."""
 
 
 @dataclass(frozen=True)
@@ -208,7 +208,8 @@ class Load(_OnPlane):
     kind "traction": the face ``axis`` = ``position`` on ``side`` (as for :class:`Boundary`)
     carries traction t = σ·n = ``traction`` × f(t) [Pa] (n outward, so a compressive load on a top
     face is (0, −p, 0)); where ``extent`` is given, the face outside it is traction-free.
-    kind "velocity": every particle that starts inside ``region`` moves at ``velocity`` × f(t) [m/s].
+    kind "velocity": every particle and virtual point that starts inside ``region`` moves at
+    ``velocity`` × f(t) [m/s] (a rigid piston; make it thicker than the support 2h).
     """
 
     name: str = "load"

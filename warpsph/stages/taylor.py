@@ -6,18 +6,18 @@ Full step, at the real particles a, from the virtual points' Φ^{n+½}:
     Φ_a^{n+1} = Φ_aⁿ + Δt (∇·σ′/ρ + b,  D:d) + ΔS(Δt)
 where values and velocity gradients come from the linear fit of :mod:`warpsph.sph.operators` (fit
 data from :mod:`warpsph.stages.corrections`), and ΔS is the Runge–Kutta increment of the Jaumann
-source. The stress divergence is the fit's own (exact for linear stress fields) except at points
-near a free surface (smallest correction eigenvalue below the scene's threshold), where it is the
-negative adjoint of the gradient fits of the sources, −Σ_b V_b σ_b (φ_b − ψ_b e_b) with the
-weights of the point in b's fit. That weak form balances stress power and kinetic energy and makes
-the surface traction-free without a closure of its own: a one-sided update of surface particles
-(with the normal traction projected out, tried first) grew without bound, while the weak form used
-everywhere is not consistent for a uniform stress on a disordered lattice and broke down under
-large stress (a column compressed by 1 MPa). Virtual points move
-with their half-step velocity, real particles with the half-step velocity fitted at them; densities
-follow continuity. Both use the configuration at tⁿ.
+source. The stress divergence is the fit's own (exact for linear stress fields). In the surface
+band (points whose smallest correction eigenvalue is below the scene's threshold) it gains the
+weak-form surface term (σ̄n)(S·n), S = Σ_b V_b (ψ_b e_b − φ_b) with the weights of the point in
+the sources' fits: the surface force that the negative adjoint of the sources' gradient operators
+(an energy-conserving divergence) gives a uniform stress, kept to its normal-traction part so that
+large stresses along a surface do not amplify particle-disorder noise. Tried and rejected (see
+docs/method.md): projecting the normal traction out of surface stresses (grew without bound in a
+free block) and the full adjoint divergence in the band (broke down under 1 MPa of compression).
+Virtual points move with their half-step velocity, real particles with the half-step velocity
+fitted at them; densities follow continuity. Both use the configuration at tⁿ. Optional Monaghan
+artificial viscosity acts between real particles and virtual points in the full step.
 """
-
 
 import functools
 
@@ -44,10 +44,10 @@ def taylor_kernels(spec: Spec):
         ms: wp.array(dtype=real), rhos: wp.array(dtype=real), vs: wp.array(dtype=vec3),
         sigmas: wp.array(dtype=mat33), h: real, c: vec3, inv_den: real, Minv: mat33, e: vec3,
         src_c: wp.array(dtype=vec3), src_inv_den: wp.array(dtype=real), src_minv: wp.array(dtype=mat33),
-        src_e: wp.array(dtype=vec3), weak: bool,
+        src_e: wp.array(dtype=vec3), in_surface_band: bool,
     ):  # fmt: skip
         """Velocity, stress, velocity gradient G[k,j] = ∂v_j/∂x_k and stress divergence fitted at x
-        from the sources; with ``weak`` the divergence is the negative adjoint of the sources' fits."""
+        from the sources; in the surface band the divergence gains the weak normal-traction term."""
         v = vec3(zero, zero, zero)
         s = mat33(zero)
         G = mat33(zero)
@@ -61,12 +61,12 @@ def taylor_kernels(spec: Spec):
             s += (vol * psi) * sigmas[b]
             G += wp.outer(vol * phi, vs[b])
             div += sigmas[b] * (vol * phi)
-            if weak:
+            if in_surface_band:
                 psi_b, phi_b = fit_weights(x - xs[b], h, src_c[b], src_inv_den[b], src_minv[b])
                 surface_sum += vol * (psi_b * src_e[b] - phi_b)
         G -= wp.outer(e, v)
         div -= s * e
-        if weak and wp.length(e) > zero:
+        if in_surface_band and wp.length(e) > zero:
             n = -wp.normalize(e)
             div += (s * n) * wp.dot(surface_sum, n)
         return v, s, G, div
