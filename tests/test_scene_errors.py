@@ -111,6 +111,19 @@ def append(extra: str):
     return lambda text: text + extra
 
 
+def material_key(line: str):
+    """A case that adds ``line`` to the material table of the base scene."""
+    return edit("poisson_ratio = 0.3", f"poisson_ratio = 0.3\n{line}")
+
+
+def base_drainage(table: str):
+    """A case that gives the base boundary the drainage ``table``."""
+    return edit('kind = "fixed"', f'kind = "fixed"\ndrainage = {table}')
+
+
+PORE_WATER = edit("pore_water = false", "pore_water = true")
+
+
 def chain(*edits):
     def apply(text: str) -> str:
         for e in edits:
@@ -144,7 +157,39 @@ BAD_CASES = {
     "unknown probe field": (edit('field = "stress_yy"', 'field = "strain_yy"'), "probes.middle.field"),
     "reaction on unknown boundary": (edit('boundary = "base"', 'boundary = "bottom"'), "probes.base_force.boundary"),
     "duplicate body names": (append(SECOND_BODY), "bodies.column.name"),
-    "pore water": (edit("pore_water = false", "pore_water = true"), "effects.pore_water"),
+    "plasticity": (edit("pore_water = false", "plasticity = true"), "effects.plasticity"),
+    "porosity 0": (material_key("porosity = 0"), "materials.soil.porosity"),
+    "porosity 1.2": (material_key("porosity = 1.2"), "materials.soil.porosity"),
+    "negative conductivity": (material_key("hydraulic_conductivity = -1e-5"), "materials.soil.hydraulic_conductivity"),
+    "conductivity in cm/s": (material_key("hydraulic_conductivity = 5"), "materials.soil.hydraulic_conductivity"),
+    "water density in g/cm3": (material_key("water_density = 1"), "materials.soil.water_density"),
+    "E in MPa": (edit("youngs_modulus = 1e7", "youngs_modulus = 30"), "materials.soil.youngs_modulus"),
+    "water modulus in MPa": (material_key("water_bulk_modulus = 2.2"), "materials.soil.water_bulk_modulus"),
+    "infinite E": (edit("youngs_modulus = 1e7", "youngs_modulus = inf"), "materials.soil.youngs_modulus"),
+    "negative k0": (material_key("k0 = -0.5"), "materials.soil.k0"),
+    "grain density and density": (material_key("grain_density = 2650"), "materials.soil.grain_density"),
+    "unknown drainage kind": (chain(PORE_WATER, base_drainage('{ kind = "porous" }')), "boundaries.base.drainage.kind"),
+    "unknown drainage key": (chain(PORE_WATER, base_drainage('{ kind = "drained", presure = 0 }')),
+                             "boundaries.base.drainage.presure"),
+    "infinite drained pressure": (chain(PORE_WATER, base_drainage('{ kind = "drained", pore_pressure = inf }')),
+                                  "boundaries.base.drainage.pore_pressure"),
+    "drainage without pore water": (base_drainage('{ kind = "drained" }'), "boundaries.base.drainage.kind"),
+    "load drainage without pore water": (
+        edit("traction = [0, -1e4]", 'traction = [0, -1e4]\ndrainage = { kind = "inflow" }'),
+        "loads.top.drainage.kind"),
+    "pore pressure without pore water": (edit('shape = "box"', 'shape = "box"\npore_pressure = 1e3'),
+                                         "bodies.column.pore_pressure"),
+    "water can neither drain nor compress": (chain(PORE_WATER, material_key("water_bulk_modulus = inf"),
+                                                   append('\n[pressure]\nfree_surface = "impermeable"\n')),
+                                             "effects.pore_water"),
+    "unknown pressure solver": (append('\n[pressure]\nsolver = "gmres"\n'), "pressure.solver"),
+    "pressure tolerance 0": (append("\n[pressure]\ntolerance = 0\n"), "pressure.tolerance"),
+    "pressure max_iterations 0": (append("\n[pressure]\nmax_iterations = 0\n"), "pressure.max_iterations"),
+    "unknown pressure key": (append("\n[pressure]\ntolerence = 1e-6\n"), "pressure.tolerence"),
+    "pore pressure output without pore water": (
+        edit('fields = ["velocity", "stress"]', 'fields = ["velocity", "pore_pressure"]'), "output.fields[1]"),
+    "pore pressure probe without pore water": (edit('field = "stress_yy"', 'field = "pore_pressure"'),
+                                               "probes.middle.field"),
     "TOML syntax error": (edit("dx = 0.1", "dx = = 0.1"), ""),
     "polygon in 3D": (chain(edit("dim = 2", "dim = 3"), edit("max = [0.5, 2.0]", "max = [0.5, 2.0, 0.5]"),
                             append(TRIANGLE_IN_3D)), "bodies.wedge.shape"),
@@ -182,6 +227,27 @@ def test_messages_say_what_is_accepted():
         parse_scene(BASE.replace('material = "soil"', 'material = "clay"'))
     with pytest.raises(SceneError, match=r"TOML syntax error: .*line 6"):
         parse_scene(BASE.replace("dx = 0.1", "dx = = 0.1"))
+    with pytest.raises(SceneError, match=r"must be >= 1000 Pa: moduli are in Pa, not kPa or MPa .*got 30\.0$"):
+        parse_scene(BASE.replace("youngs_modulus = 1e7", "youngs_modulus = 30"))
+    with pytest.raises(SceneError, match=r"must be in \[500, 2000\] kg/m³ .*got 1\.0$"):
+        parse_scene(BASE.replace("poisson_ratio = 0.3", "poisson_ratio = 0.3\nwater_density = 1"))
+    with pytest.raises(SceneError, match=r"must be <= 1 m/s: k_h is in m/s"):
+        parse_scene(BASE.replace("poisson_ratio = 0.3", "poisson_ratio = 0.3\nhydraulic_conductivity = 5"))
+    with pytest.raises(SceneError, match=r"^materials\.soil\.grain_density: give either density \(the mixture\) or "
+                       r"grain_density, not both$"):
+        parse_scene(BASE.replace("poisson_ratio = 0.3", "poisson_ratio = 0.3\ngrain_density = 2650"))
+    with pytest.raises(SceneError, match=r"^boundaries\.base\.drainage\.kind: needs effects\.pore_water = true$"):
+        parse_scene(BASE.replace('kind = "fixed"', 'kind = "fixed"\ndrainage = { kind = "drained" }'))
+    with pytest.raises(SceneError, match=r'must be one of "impermeable", "drained", "inflow", got "porous"'):
+        parse_scene(BASE.replace('kind = "fixed"', 'kind = "fixed"\ndrainage = { kind = "porous" }'))
+    with pytest.raises(SceneError, match=r"^pressure\.solver: must be one of \"cg\", \"jacobi\", got \"gmres\"$"):
+        parse_scene(BASE + '\n[pressure]\nsolver = "gmres"\n')
+    with pytest.raises(SceneError, match=r"^pressure\.tolerance: must be in \(0, 1\), got 0\.0$"):
+        parse_scene(BASE + "\n[pressure]\ntolerance = 0\n")
+    with pytest.raises(SceneError, match=r'^output\.fields\[1\]: "pore_pressure" needs effects\.pore_water = true$'):
+        parse_scene(BASE.replace('fields = ["velocity", "stress"]', 'fields = ["velocity", "pore_pressure"]'))
+    with pytest.raises(SceneError, match=r"unknown section; accepted: .*output, pressure, probes"):
+        parse_scene(BASE + "\n[solver]\ntolerance = 1\n")
     with pytest.raises(SceneError, match=r"empty body: no lattice point of spacing dx = 0.1 lies inside it"):
         parse_scene(BASE.replace("max = [0.5, 2.0]", "max = [0.05, 2.0]").replace("min = [0, 0]", "min = [0.01, 0]"))
 
@@ -245,3 +311,22 @@ def test_documented_example_is_valid():
     assert [b.kind for b in scene.boundaries] == ["fixed", "slip", "slip"]
     assert scene.loads[0].traction == (0.0, -10e3, 0.0)
     assert len(fill_body(scene.bodies[0], scene.simulation.dx, 2)) == 11 * 41
+
+
+def test_documented_terzaghi_example_is_valid():
+    doc = (Path(__file__).parents[1] / "docs" / "scenes.md").read_text()
+    example = next(block for block in doc.split("```toml\n")[1:] if 'name = "terzaghi"' in block)
+    scene = parse_scene(example.split("```")[0])
+    soil = scene.materials["soil"]
+    assert scene.effects.pore_water and scene.simulation.dim == 1
+    assert soil.density == pytest.approx(1700.0, rel=1e-12)
+    assert soil.biot_modulus == pytest.approx(1e8 / 0.3, rel=1e-12)  # 333.3 MPa
+    assert soil.oedometric_modulus == pytest.approx(1e8 / 3, rel=1e-12)  # 33.33 MPa
+    p0 = 5e3 * soil.biot_modulus / (soil.biot_modulus + soil.oedometric_modulus)
+    body = scene.bodies[0]
+    assert body.pore_pressure == pytest.approx(p0, rel=1e-12)
+    assert body.stress[1] == pytest.approx(-(5e3 - p0), rel=1e-12)
+    assert body.stress[0] == body.stress[2] == pytest.approx(0.25 * body.stress[1], rel=1e-12)
+    assert scene.boundaries[0].drainage.kind == "impermeable"
+    assert (scene.loads[0].drainage.kind, scene.loads[0].drainage.pore_pressure) == ("drained", 0.0)
+    assert len(fill_body(body, scene.simulation.dx, 1)) == 101

@@ -1,10 +1,14 @@
 """Reading scenes from TOML files (format: ``docs/scenes.md``).
 
 The file mirrors the dataclasses of :mod:`warpsph.scene`: ``[simulation]``, ``[effects]`` and
-``[output]`` tables, one ``[materials.<name>]`` table per material and ``[[bodies]]``,
-``[[boundaries]]``, ``[[loads]]`` and ``[[probes]]`` arrays of tables. The accepted keys are the
-dataclass fields, so the format follows the dataclasses. Every problem raises
-:class:`~warpsph.errors.SceneError` naming its key path.
+``[pressure]`` and ``[output]`` tables, one ``[materials.<name>]`` table per material and
+``[[bodies]]``, ``[[boundaries]]``, ``[[loads]]`` and ``[[probes]]`` arrays of tables (nested
+dataclasses such as ``drainage`` are inline tables). The accepted keys are the dataclass fields, so
+the format follows the dataclasses. Every problem raises :class:`~warpsph.errors.SceneError` naming
+its key path.
+
+One rule goes beyond the dataclasses: a material gives either ``density`` (the saturated mixture)
+or ``grain_density``, from which ``density`` is set to the mixture (1 − n) ρ_s + n ρ_w.
 """
 
 from __future__ import annotations
@@ -22,6 +26,7 @@ from warpsph.validation import (
     is_finite_field,
     item_key,
     join_key,
+    mixture_density,
     optional_inner,
     show,
     validate_scene,
@@ -50,11 +55,24 @@ def parse_scene(text: str, name: str = "scene") -> Scene:
     except tomllib.TOMLDecodeError as exc:
         raise SceneError("", f"TOML syntax error: {' '.join(str(exc).split())}") from None
     scene = _from_table(Scene, "", document, exclude=("source_text",))
+    _set_mixture_densities(scene, document)
     if "name" not in document:
         scene.name = name
     scene.source_text = text
     validate_scene(scene)
     return scene
+
+
+def _set_mixture_densities(scene: Scene, document: dict) -> None:
+    """A material with ``grain_density`` gets ``density`` = (1 − n) ρ_s + n ρ_w; it may not give both."""
+    for key, material in scene.materials.items():
+        if material.grain_density is None:
+            continue
+        if "density" in document["materials"][key]:
+            raise SceneError(
+                f"materials.{key}.grain_density", "give either density (the mixture) or grain_density, not both"
+            )
+        material.density = mixture_density(material)
 
 
 def _from_table(cls, key: str, table, exclude: tuple[str, ...] = (), **given):

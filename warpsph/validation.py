@@ -29,10 +29,12 @@ from warpsph.scene import (
     AXES,
     Body,
     Boundary,
+    Drainage,
     Effects,
     Load,
     Material,
     Output,
+    PressureSolver,
     Probe,
     Region,
     Scene,
@@ -46,12 +48,23 @@ PROBE_FIELDS = (
     *(f"stress_{c}" for c in ("xx", "yy", "zz", "yz", "xz", "xy")),
     "mean_stress",
     "von_mises",
+    "pore_pressure",
 )
-OUTPUT_FIELDS = ("velocity", "stress", "displacement")
-UNAVAILABLE_EFFECTS = ("pore_water", "plasticity")
+OUTPUT_FIELDS = ("velocity", "stress", "displacement", "pore_pressure", "darcy_velocity")
+PORE_WATER_FIELDS = ("pore_pressure", "darcy_velocity")
+"""Probe and output fields that need ``effects.pore_water``."""
+UNAVAILABLE_EFFECTS = ("plasticity",)
 """Effects declared in :class:`~warpsph.scene.Effects` but not implemented in this version."""
-UNBOUNDED_FIELDS = {(Simulation, "velocity_limit"), (Region, "min"), (Region, "max")}
+UNBOUNDED_FIELDS = {
+    (Simulation, "velocity_limit"),
+    (Region, "min"),
+    (Region, "max"),
+    (Material, "grain_bulk_modulus"),
+    (Material, "water_bulk_modulus"),
+}
 """Number fields that may be ±infinity (all others must be finite)."""
+MIN_MODULUS = 1.0e3
+"""Moduli below this [Pa] are taken for a unit mistake (kPa or MPa written as Pa)."""
 
 _NAME = re.compile(r"[A-Za-z0-9_-]+")
 
@@ -126,6 +139,9 @@ class Interval:
 
 POSITIVE = Interval(0.0, hi_closed=True)
 NON_NEGATIVE = Interval(0.0, lo_closed=True, hi_closed=True)
+UNIT_INTERVAL = Interval(0.0, 1.0)
+WATER_DENSITIES = Interval(500.0, 2000.0, True, True)
+"""Water densities [kg/m³] that are plausible; others are taken for a unit mistake."""
 
 
 def check_range(key: str, value: float, interval: Interval) -> None:
@@ -286,7 +302,7 @@ def validate_scene(scene: Scene) -> None:
     _check_simulation(scene.simulation)
     _check_effects(scene.effects)
     _check_materials(scene.materials)
-    dim = scene.simulation.dim
+    _check_pressure(scene.pressure)
     bodies = _named_items(scene, "bodies", Body)
     if not bodies:
         raise SceneError("bodies", "at least one body is required, e.g. [[bodies]]")
@@ -297,14 +313,15 @@ def validate_scene(scene: Scene) -> None:
     loads = _named_items(scene, "loads", Load)
     check_unique("boundary or load", ("boundaries", boundaries), ("loads", loads))
     for i, boundary in enumerate(boundaries):
-        _check_boundary(boundary, item_key("boundaries", boundary.name, i), dim)
+        _check_boundary(boundary, item_key("boundaries", boundary.name, i), scene)
     for i, load in enumerate(loads):
-        _check_load(load, item_key("loads", load.name, i), dim)
+        _check_load(load, item_key("loads", load.name, i), scene)
+    _check_pore_water_can_escape(scene)
     probes = _named_items(scene, "probes", Probe)
     check_unique("probe", ("probes", probes))
     for i, probe in enumerate(probes):
         _check_probe(probe, item_key("probes", probe.name, i), scene)
-    _check_output(scene.output)
+    _check_output(scene.output, scene.effects)
 
 
 def _named_items(scene: Scene, section: str, cls) -> list:
@@ -354,9 +371,69 @@ def _check_materials(materials: dict) -> None:
         check_instance(key, material, Material)
         check_types(material, key)
         check_choice(f"{key}.model", material.model, ("elastic",))
+        check_range(f"{key}.porosity", material.porosity, UNIT_INTERVAL)
+        if material.water_density not in WATER_DENSITIES:
+            raise SceneError(
+                f"{key}.water_density",
+                f"must be {WATER_DENSITIES} kg/m³ (water is about 1000 kg/m³; not g/cm³ or t/m³), "
+                f"got {show(material.water_density)}",
+            )
         check_range(f"{key}.density", material.density, POSITIVE)
-        check_range(f"{key}.youngs_modulus", material.youngs_modulus, POSITIVE)
+        if material.grain_density is not None:
+            check_range(f"{key}.grain_density", material.grain_density, POSITIVE)
+            mixture = mixture_density(material)
+            if abs(material.density - mixture) > 1e-9 * mixture:
+                raise SceneError(
+                    f"{key}.density",
+                    "with grain_density given, must be the mixture density "
+                    f"(1 - porosity) grain_density + porosity water_density = {show(mixture)}, "
+                    f"got {show(material.density)}",
+                )
+        check_modulus(f"{key}.youngs_modulus", material.youngs_modulus)
         check_range(f"{key}.poisson_ratio", material.poisson_ratio, Interval(-1.0, 0.5))
+        check_modulus(f"{key}.grain_bulk_modulus", material.grain_bulk_modulus)
+        check_modulus(f"{key}.water_bulk_modulus", material.water_bulk_modulus)
+        conductivity = material.hydraulic_conductivity
+        check_range(f"{key}.hydraulic_conductivity", conductivity, NON_NEGATIVE)
+        if conductivity > 1.0:
+            raise SceneError(
+                f"{key}.hydraulic_conductivity",
+                "must be <= 1 m/s: k_h is in m/s (not cm/s, nor a permeability in m²) "
+                f"and no soil is more permeable, got {show(conductivity)}",
+            )
+        if material.k0 is not None:
+            check_range(f"{key}.k0", material.k0, NON_NEGATIVE)
+
+
+def mixture_density(material: Material) -> float:
+    """Saturated mixture density (1 − n) ρ_s + n ρ_w [kg/m³] of a material with ``grain_density``."""
+    n = material.porosity
+    return (1.0 - n) * material.grain_density + n * material.water_density
+
+
+def check_modulus(key: str, value: float) -> None:
+    """Raise unless the modulus ``value`` [Pa] is positive (inf allowed) and not written in kPa or MPa."""
+    check_range(key, value, POSITIVE)
+    if value < MIN_MODULUS:
+        raise SceneError(
+            key, f"must be >= 1000 Pa: moduli are in Pa, not kPa or MPa (30 MPa is 30e6), got {show(value)}"
+        )
+
+
+def _check_pressure(pressure: PressureSolver) -> None:
+    check_instance("pressure", pressure, PressureSolver)
+    check_types(pressure, "pressure")
+    check_choice("pressure.solver", pressure.solver, ("cg", "jacobi"))
+    check_range("pressure.tolerance", pressure.tolerance, UNIT_INTERVAL)
+    check_range("pressure.max_iterations", pressure.max_iterations, Interval(1.0, lo_closed=True, hi_closed=True))
+    check_range("pressure.jacobi_weight", pressure.jacobi_weight, Interval(0.0, 1.0, hi_closed=True))
+    check_choice("pressure.on_failure", pressure.on_failure, ("warn", "stop"))
+    check_choice("pressure.free_surface", pressure.free_surface, ("drained", "impermeable"))
+
+
+def _needs_pore_water(key: str, effects: Effects, what: str) -> None:
+    if not effects.pore_water:
+        raise SceneError(key, f"{what}needs effects.pore_water = true")
 
 
 def _check_body(body: Body, key: str, scene: Scene) -> None:
@@ -364,6 +441,8 @@ def _check_body(body: Body, key: str, scene: Scene) -> None:
     if body.material not in scene.materials:
         defined = ", ".join(show(m) for m in scene.materials)
         raise SceneError(f"{key}.material", f"unknown material {show(body.material)}; defined materials: {defined}")
+    if body.pore_pressure != 0.0:
+        _needs_pore_water(f"{key}.pore_pressure", scene.effects, "a non-zero initial pore pressure ")
     check_choice(f"{key}.shape", body.shape, ("box", "polygon", "circle"))
     dim, dx = scene.simulation.dim, scene.simulation.dx
     if body.shape == "box":
@@ -388,24 +467,50 @@ def _check_body(body: Body, key: str, scene: Scene) -> None:
         raise SceneError(key, f"empty body: no lattice point of spacing dx = {show(dx)} lies inside it")
 
 
-def _check_boundary(boundary: Boundary, key: str, dim: int) -> None:
+def _check_boundary(boundary: Boundary, key: str, scene: Scene) -> None:
     check_types(boundary, key)
     check_choice(f"{key}.kind", boundary.kind, ("fixed", "slip", "symmetry", "free", "velocity"))
-    _check_face(boundary, key, dim)
+    _check_face(boundary, key, scene.simulation.dim)
     _check_time_function(boundary.time_function, f"{key}.time_function")
+    _check_drainage(boundary.drainage, f"{key}.drainage", scene.effects)
 
 
-def _check_load(load: Load, key: str, dim: int) -> None:
+def _check_load(load: Load, key: str, scene: Scene) -> None:
     check_types(load, key)
     check_choice(f"{key}.kind", load.kind, ("traction", "velocity"))
     if load.kind == "traction":
-        _check_face(load, key, dim)
+        _check_face(load, key, scene.simulation.dim)
     elif load.region is None:
         raise SceneError(f"{key}.region", 'a "velocity" load needs region = { min = [...], max = [...] }')
     for name in ("extent", "region"):
         if getattr(load, name) is not None:
             _check_region(getattr(load, name), f"{key}.{name}")
     _check_time_function(load.time_function, f"{key}.time_function")
+    _check_drainage(load.drainage, f"{key}.drainage", scene.effects)
+    if load.kind == "velocity" and load.drainage.kind != "impermeable":
+        raise SceneError(
+            f"{key}.drainage.kind",
+            f'must be "impermeable" for a "velocity" load (only faces drain), got {show(load.drainage.kind)}',
+        )
+
+
+def _check_drainage(drainage: Drainage, key: str, effects: Effects) -> None:
+    check_choice(f"{key}.kind", drainage.kind, ("impermeable", "drained", "inflow"))
+    if drainage.kind != "impermeable":
+        _needs_pore_water(f"{key}.kind", effects, "")
+
+
+def _check_pore_water_can_escape(scene: Scene) -> None:
+    """Refuse saturated soil whose water can neither leave (no drained face) nor compress."""
+    if not scene.effects.pore_water or scene.pressure.free_surface == "drained":
+        return
+    if any(face.drainage.kind == "drained" for face in [*scene.boundaries, *scene.loads]):
+        return
+    if all(math.isinf(scene.materials[body.material].biot_modulus) for body in scene.bodies):
+        raise SceneError(
+            "effects.pore_water",
+            "the pore water can neither drain nor compress: add a drained boundary or a finite water_bulk_modulus",
+        )
 
 
 def _check_face(face: Boundary | Load, key: str, dim: int) -> None:
@@ -456,17 +561,21 @@ def _check_probe(probe: Probe, key: str, scene: Scene) -> None:
             )
         return
     check_choice(f"{key}.field", probe.field, PROBE_FIELDS)
+    if probe.field in PORE_WATER_FIELDS:
+        _needs_pore_water(f"{key}.field", scene.effects, f"{show(probe.field)} ")
     if probe.kind == "region_mean":
         if probe.region is None:
             raise SceneError(f"{key}.region", 'a "region_mean" probe needs region = { min = [...], max = [...] }')
         _check_region(probe.region, f"{key}.region")
 
 
-def _check_output(output: Output) -> None:
+def _check_output(output: Output, effects: Effects) -> None:
     check_instance("output", output, Output)
     check_types(output, "output")
     check_range("output.frame_interval", output.frame_interval, POSITIVE)
     for i, name in enumerate(output.fields):
         check_choice(f"output.fields[{i}]", name, OUTPUT_FIELDS)
+        if name in PORE_WATER_FIELDS:
+            _needs_pore_water(f"output.fields[{i}]", effects, f"{show(name)} ")
     check_range("output.checkpoint_interval", output.checkpoint_interval, NON_NEGATIVE)
     check_range("output.probe_every", output.probe_every, Interval(1.0, lo_closed=True, hi_closed=True))
