@@ -14,6 +14,7 @@ import warp as wp
 from warpsph.fields import voigt_to_tensor
 from warpsph.lattice import fill_body, fill_cells
 from warpsph.model import PLANE_FIXED, PLANE_SLIP, PLANE_TRACTION, PLANE_VELOCITY, Model, State
+from warpsph.pore_water import build_pore_water
 from warpsph.scene import Scene
 from warpsph.sph.spec import Spec
 
@@ -31,11 +32,11 @@ def _planes(scene: Scene):
     for b in scene.boundaries:
         vec = b.velocity if b.kind == "velocity" else (0.0, 0.0, 0.0)
         planes.append((b.name, b.axis_index, b.position, b.outward_sign, _BOUNDARY_KINDS[b.kind], vec, None,
-                       b.time_function))  # fmt: skip
+                       b.time_function, b.drainage))  # fmt: skip
     for ld in scene.loads:
         if ld.kind == "traction":
             planes.append((ld.name, ld.axis_index, ld.position, ld.outward_sign, PLANE_TRACTION, ld.traction,
-                           ld.extent, ld.time_function))  # fmt: skip
+                           ld.extent, ld.time_function, ld.drainage))  # fmt: skip
     return planes
 
 
@@ -82,6 +83,18 @@ def _initial_velocity(body, points: np.ndarray) -> np.ndarray:
     return v
 
 
+def _geostatic(material, points: np.ndarray, gravity, pore_water: bool) -> np.ndarray:
+    """Geostatic effective stress (…,3,3) [Pa] below the top of ``points``: σ′_yy = −(ρ − ρ_w) g depth
+    (ρ_w only with pore water, buoyant weight), σ′_xx = σ′_zz = K0 σ′_yy."""
+    weight = material.density - (material.water_density if pore_water else 0.0)
+    vertical = -weight * (-gravity[1]) * (points[:, 1].max() - points[:, 1])
+    k0 = material.earth_pressure_at_rest
+    out = np.zeros((len(points), 3, 3))
+    out[:, 0, 0] = out[:, 2, 2] = k0 * vertical
+    out[:, 1, 1] = vertical
+    return out
+
+
 def build(scene: Scene, device: str = "cpu", precision: str | None = None) -> tuple[Model, State]:
     """Turn a validated ``scene`` into a Model and its initial State on ``device``."""
     spec = Spec.from_scene(scene, precision)
@@ -101,10 +114,15 @@ def build(scene: Scene, device: str = "cpu", precision: str | None = None) -> tu
     density0 = np.array([mats[body_mat[b]].density for b in real_body])
     velocity0 = np.zeros((n, 3))
     stress0 = np.zeros((n, 3, 3))
+    pore = spec.effects.pore_water
+    pore0 = np.zeros(n)
     for i, body in enumerate(scene.bodies):
         sel = real_body == i
         velocity0[sel] = _initial_velocity(body, real_pts[sel])
         stress0[sel] = voigt_to_tensor(body.stress)
+        if body.geostatic and np.any(sel):
+            stress0[sel] += _geostatic(mats[body_mat[i]], real_pts[sel], sim.gravity, pore)
+        pore0[sel] = body.pore_pressure
 
     planes = _planes(scene)
     g_pos, g_src, g_chain = _ghost_plan(real_pts, planes, band, tol)
@@ -205,6 +223,7 @@ def build(scene: Scene, device: str = "cpu", precision: str | None = None) -> tu
         region_velocity=arr(np.array([ld.velocity for ld in vel_loads], npr), vec3, (0, 3)),
         region_functions=[ld.time_function for ld in vel_loads],
         particle_ids=np.arange(n, dtype=np.int64),
+        pore=build_pore_water(scene, [p[8] for p in planes], float(real_pts[:, 1].max()), device) if pore else None,
     )
 
     state = model.state()
@@ -212,6 +231,8 @@ def build(scene: Scene, device: str = "cpu", precision: str | None = None) -> tu
     state.particle_v.assign(ext(velocity0, g_src).astype(npr))
     state.particle_stress.assign(ext(stress0, g_src).astype(npr))
     state.particle_density.assign(ext(density0, g_src).astype(npr))
+    if pore:
+        state.particle_pore_pressure.assign(ext(pore0, g_src))
     if two_set:
         state.virtual_q.assign(np.concatenate([virt_pts, vg_pos]).astype(npr))
         state.virtual_density.assign(ext(virt_density, vg_src).astype(npr))

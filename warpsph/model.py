@@ -13,6 +13,7 @@ from dataclasses import dataclass, field
 import numpy as np
 import warp as wp
 
+from warpsph.pore_water import PoreWaterModel
 from warpsph.scene import Scene
 from warpsph.sph.spec import Spec
 
@@ -105,6 +106,8 @@ class Model:
     region_functions: list
 
     particle_ids: np.ndarray = field(default_factory=lambda: np.zeros(0, dtype=np.int64))
+    pore: PoreWaterModel | None = None
+    """Hydraulic data, only with the pore_water effect."""
 
     @property
     def particle_total(self) -> int:
@@ -135,6 +138,8 @@ class State:
     """(M+GV,) vec3 positions of the virtual stress points [m] (two-set scheme only)."""
     virtual_density: wp.array | None
     """(M+GV,) density at the virtual points [kg/m³] (two-set scheme only)."""
+    particle_pore_pressure: wp.array | None = None
+    """(N+G,) float64 excess pore pressure over hydrostatic [Pa, compression positive] (pore_water only)."""
 
     @classmethod
     def allocate(cls, model: Model) -> "State":
@@ -148,6 +153,7 @@ class State:
             particle_density=wp.zeros(n, dtype=s.real, device=dev),
             virtual_q=wp.zeros(m, dtype=s.vec3, device=dev) if two_set else None,
             virtual_density=wp.zeros(m, dtype=s.real, device=dev) if two_set else None,
+            particle_pore_pressure=wp.zeros(n, dtype=wp.float64, device=dev) if s.effects.pore_water else None,
         )
 
     def arrays(self) -> dict[str, wp.array]:

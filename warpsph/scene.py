@@ -13,6 +13,8 @@ from dataclasses import dataclass, field
 import numpy as np
 
 AXES = ("x", "y", "z")
+STANDARD_GRAVITY = 9.81
+"""g [m/s²] converting hydraulic conductivity and heads to pressures."""
 
 
 @dataclass
@@ -114,6 +116,20 @@ class Material:
     """Young's modulus E [Pa]."""
     poisson_ratio: float = 0.3
     """Poisson's ratio ν [-], in (-1, 0.5)."""
+    porosity: float = 0.3
+    """Porosity n [-] in (0, 1) (pore_water effect)."""
+    grain_density: float | None = None
+    """Grain density ρ_s [kg/m³]; when given, ``density`` is the saturated mixture (1−n)ρ_s + nρ_w."""
+    water_density: float = 1000.0
+    """Pore-water density ρ_w [kg/m³] (pore_water effect)."""
+    grain_bulk_modulus: float = math.inf
+    """Grain bulk modulus K_s [Pa]; inf for rigid grains (pore_water effect)."""
+    water_bulk_modulus: float = 2.2e9
+    """Water bulk modulus K_w [Pa]; inf for incompressible water (pore_water effect)."""
+    hydraulic_conductivity: float = 1.0e-5
+    """Hydraulic conductivity k_h [m/s] ≥ 0; k = k_h / (ρ_w g) with g = 9.81 m/s² (pore_water effect)."""
+    k0: float | None = None
+    """Earth-pressure coefficient at rest for geostatic stresses; None means ν/(1−ν)."""
 
     @property
     def shear_modulus(self) -> float:
@@ -135,6 +151,22 @@ class Material:
     def oedometric_modulus(self) -> float:
         """E_oed = K + 4G/3 [Pa]."""
         return self.lame_lambda + 2.0 * self.shear_modulus
+
+    @property
+    def biot_modulus(self) -> float:
+        """Q [Pa], 1/Q = (1−n)/K_s + n/K_w (inf when both constituents are incompressible)."""
+        inv = (1.0 - self.porosity) / self.grain_bulk_modulus + self.porosity / self.water_bulk_modulus
+        return math.inf if inv == 0.0 else 1.0 / inv
+
+    @property
+    def permeability(self) -> float:
+        """k = k_h / (ρ_w g) [m³·s/kg], with the standard g = 9.81 m/s²."""
+        return self.hydraulic_conductivity / (self.water_density * STANDARD_GRAVITY)
+
+    @property
+    def earth_pressure_at_rest(self) -> float:
+        """K0 [-]: ``k0`` or ν/(1−ν)."""
+        return self.k0 if self.k0 is not None else self.poisson_ratio / (1.0 - self.poisson_ratio)
 
     @property
     def p_wave_speed(self) -> float:
@@ -164,6 +196,26 @@ class Body:
     """Initial rigid spin about the z axis through ``center`` [rad/s] (2D and 3D)."""
     stress: tuple[float, float, float, float, float, float] = (0.0,) * 6
     """Initial effective stress, Voigt order xx, yy, zz, yz, xz, xy [Pa, tension positive]."""
+    pore_pressure: float = 0.0
+    """Initial excess pore pressure over the hydrostatic one [Pa, compression positive] (pore_water)."""
+    geostatic: bool = False
+    """Add geostatic effective stresses under gravity: σ′_yy = −(ρ − ρ_w) g (top − y) with the body's
+    top, σ′_xx = σ′_zz = K0 σ′_yy (ρ_w = 0 without pore water)."""
+
+
+@dataclass
+class Drainage:
+    """Pore-water condition of a plane (pore_water effect).
+
+    kind: "impermeable" (w·n = 0), "drained" (pore pressure ``pore_pressure`` [Pa] or, when
+    ``head`` [m] is given, ρ_w g (head − y)) or "inflow" (water enters at ``inflow`` [m/s], the
+    Darcy velocity into the body).
+    """
+
+    kind: str = "impermeable"
+    pore_pressure: float = 0.0
+    head: float | None = None
+    inflow: float = 0.0
 
 
 class _OnPlane:
@@ -199,6 +251,8 @@ class Boundary(_OnPlane):
     side: str = "min"
     velocity: tuple[float, float, float] = (0.0, 0.0, 0.0)
     time_function: TimeFunction = field(default_factory=TimeFunction)
+    drainage: Drainage = field(default_factory=Drainage)
+    """Pore-water condition of the plane (pore_water effect)."""
 
 
 @dataclass
@@ -222,6 +276,8 @@ class Load(_OnPlane):
     region: Region | None = None
     velocity: tuple[float, float, float] = (0.0, 0.0, 0.0)
     time_function: TimeFunction = field(default_factory=TimeFunction)
+    drainage: Drainage = field(default_factory=Drainage)
+    """Pore-water condition of the loaded face (pore_water effect)."""
 
 
 @dataclass
@@ -242,6 +298,26 @@ class Probe:
     point: tuple[float, float, float] = (0.0, 0.0, 0.0)
     region: Region | None = None
     boundary: str = ""
+
+
+@dataclass
+class PressureSolver:
+    """The pore-pressure projection (pore_water effect)."""
+
+    solver: str = "cg"
+    """"cg" (Jacobi-preconditioned conjugate gradients) or "jacobi" (weighted Jacobi)."""
+    tolerance: float = 1.0e-8
+    """Relative residual ‖b − Ax‖/‖b‖ at which a solve stops [-]."""
+    max_iterations: int = 1000
+    """Iteration cap of a solve."""
+    jacobi_weight: float = 0.8
+    """Relaxation weight ω of weighted Jacobi, in (0, 1]."""
+    on_failure: str = "warn"
+    """A solve that misses its tolerance: "warn" (once per run, and counted) or "stop"."""
+    water_table: float | None = None
+    """Level y [m] of the hydrostatic reference, p = ρ_w g (water_table − y); None: the top of the bodies."""
+    free_surface: str = "drained"
+    """Free surfaces found from the particles: "drained" (p = 0) or "impermeable"."""
 
 
 @dataclass
@@ -274,6 +350,7 @@ class Scene:
     boundaries: list[Boundary] = field(default_factory=list)
     loads: list[Load] = field(default_factory=list)
     probes: list[Probe] = field(default_factory=list)
+    pressure: PressureSolver = field(default_factory=PressureSolver)
     output: Output = field(default_factory=Output)
     source_text: str = ""
     """The scene file's text, stored in results for provenance (empty for Python-built scenes)."""

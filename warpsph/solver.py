@@ -20,6 +20,7 @@ from warpsph.sph.neighbours import NeighbourList
 from warpsph.stages.boundaries import Boundaries
 from warpsph.stages.collocated import RK_TABLEAU, collocated_kernels
 from warpsph.stages.corrections import FitData, compute_fit_data
+from warpsph.stages.pressure import PressureProjection
 from warpsph.stages.taylor import taylor_kernels
 
 
@@ -65,17 +66,28 @@ class Solver:
             Stage("taylor_full_step", self._full_step),
             Stage("prescribed_values", self._prescribe),
         ]
+        self.projection = None
+        self.virtual_p = None
+        if s.effects.pore_water:
+            self.virtual_p = wp.zeros(m.virtual_total, dtype=wp.float64, device=dev)
+            self.real_to_real = NeighbourList(s, m.extent, self.support, dev, same_set=True)
+            self.projection = PressureProjection(m, self)
+            self.stages.append(Stage("pressure_projection", self._project))
 
     def _ghosts_two_set(self, si: State, so: State, t: float, dt: float) -> None:
         self.boundaries.set_time(t)
         self.boundaries.move_planes(si.particle_q)
         self.boundaries.update_real_ghosts(si.particle_q, si.particle_v, si.particle_stress, si.particle_density)
+        if self.projection is not None:
+            self.projection.update_ghosts(si.particle_q, si.particle_pore_pressure, homogeneous=False)
         self.boundaries.update_virtual_ghosts(si.virtual_q, self.virtual_v, self.virtual_stress, si.virtual_density)
 
     def _neighbours_two_set(self, si: State, so: State, t: float, dt: float) -> None:
         m = self.model
         self.virtual_to_real.build(si.virtual_q, m.virtual_count, si.particle_q, m.particle_total)
         self.real_to_virtual.build(si.particle_q, m.particle_count, si.virtual_q, m.virtual_total)
+        if self.projection is not None:
+            self.real_to_real.build(si.particle_q, m.particle_count, si.particle_q, m.particle_total)
 
     def _corrections(self, si: State, so: State, t: float, dt: float) -> None:
         m = self.model
@@ -97,12 +109,15 @@ class Solver:
                 si.particle_stress, *self.real_fits.arrays(), si.virtual_q, si.virtual_density, m.virtual_material,
                 *self.virtual_fits.arrays(),
                 m.material_lambda, m.material_shear, self.virtual_v, self.virtual_stress, so.virtual_q,
-                so.virtual_density], m.device)  # fmt: skip
+                so.virtual_density, si.particle_pore_pressure, self._water_density, self.virtual_p],
+               m.device)  # fmt: skip
 
     def _virtual_ghosts(self, si: State, so: State, t: float, dt: float) -> None:
         self.boundaries.set_time(t + 0.5 * dt)
         self.boundaries.prescribe_virtual(self.virtual_v)
         self.boundaries.update_virtual_ghosts(si.virtual_q, self.virtual_v, self.virtual_stress, si.virtual_density)
+        if self.projection is not None:
+            self.projection.update_ghosts(si.virtual_q, self.virtual_p, homogeneous=False, virtual=True)
 
     def _full_step(self, si: State, so: State, t: float, dt: float) -> None:
         m = self.model
@@ -111,10 +126,21 @@ class Solver:
         nl = self.real_to_virtual
         launch(full_step, m.particle_count,
                [real(m.h), real(dt), m.spec.vec3(*m.gravity), real(m.scene.simulation.free_surface_threshold),
-                real(m.scene.simulation.artificial_viscosity), nl.offsets, nl.indices, si.virtual_q, m.virtual_mass, si.virtual_density, self.virtual_v,
-                self.virtual_stress, *self.virtual_fits.arrays()[:4], *self.real_fits.arrays(), si.particle_q, si.particle_v,
+                real(m.scene.simulation.artificial_viscosity), nl.offsets, nl.indices, si.virtual_q,
+                m.virtual_mass, si.virtual_density, self.virtual_v, self.virtual_stress,
+                *self.virtual_fits.arrays()[:4], *self.real_fits.arrays(), si.particle_q, si.particle_v,
                 si.particle_stress, si.particle_density, m.particle_material, m.material_lambda, m.material_shear,
-                m.material_wave_speed, so.particle_q, so.particle_v, so.particle_stress, so.particle_density], m.device)  # fmt: skip
+                m.material_wave_speed, so.particle_q, so.particle_v, so.particle_stress, so.particle_density,
+                self.virtual_p, self._water_density], m.device)  # fmt: skip
+
+    @property
+    def _water_density(self):
+        return self.model.pore.material_water_density if self.model.pore is not None else None
+
+    def _project(self, si: State, so: State, t: float, dt: float) -> None:
+        """Pressure projection, then the prescribed velocities again (the correction moves them)."""
+        self.projection.project(si, so, dt)
+        self.boundaries.prescribe(so.particle_q, so.particle_v, so.particle_stress)
 
     def _prescribe(self, si: State, so: State, t: float, dt: float) -> None:
         self.boundaries.set_time(t + dt)

@@ -36,7 +36,8 @@ def taylor_kernels(spec: Spec):
     _fit, fit_weights, _unused, _eig = operator_functions(spec)
     _W, grad_W = smoothing_functions(spec)
     hooke_rate, source_increment, split_velocity_gradient = elastic_functions(spec)
-    zero, half = real(0.0), real(0.5)
+    zero, half, one = real(0.0), real(0.5), real(1.0)
+    pore_water = spec.effects.pore_water
 
     @wp.func
     def fit_fields(
@@ -44,15 +45,18 @@ def taylor_kernels(spec: Spec):
         ms: wp.array(dtype=real), rhos: wp.array(dtype=real), vs: wp.array(dtype=vec3),
         sigmas: wp.array(dtype=mat33), h: real, c: vec3, inv_den: real, Minv: mat33, e: vec3,
         src_c: wp.array(dtype=vec3), src_inv_den: wp.array(dtype=real), src_minv: wp.array(dtype=mat33),
-        src_e: wp.array(dtype=vec3), in_surface_band: bool,
+        src_e: wp.array(dtype=vec3), in_surface_band: bool, ps: wp.array(dtype=wp.float64),
     ):  # fmt: skip
-        """Velocity, stress, velocity gradient G[k,j] = ∂v_j/∂x_k and stress divergence fitted at x
-        from the sources; in the surface band the divergence gains the weak normal-traction term."""
+        """Velocity, effective stress, velocity gradient G[k,j] = ∂v_j/∂x_k, divergence of the total
+        stress σ′ − pI and pore pressure fitted at x from the sources; in the surface band the
+        divergence gains the weak normal-traction term."""
         v = vec3(zero, zero, zero)
         s = mat33(zero)
         G = mat33(zero)
         div = vec3(zero, zero, zero)
         surface_sum = vec3(zero, zero, zero)
+        p = wp.float64(0.0)
+        grad_p = vec3(zero, zero, zero)
         for k in range(start, end):
             b = nbr[k]
             vol = ms[b] / rhos[b]
@@ -61,15 +65,22 @@ def taylor_kernels(spec: Spec):
             s += (vol * psi) * sigmas[b]
             G += wp.outer(vol * phi, vs[b])
             div += sigmas[b] * (vol * phi)
+            if wp.static(pore_water):
+                p += wp.float64(vol * psi) * ps[b]
+                grad_p += (vol * real(ps[b])) * phi
             if in_surface_band:
                 psi_b, phi_b = fit_weights(x - xs[b], h, src_c[b], src_inv_den[b], src_minv[b])
                 surface_sum += vol * (psi_b * src_e[b] - phi_b)
         G -= wp.outer(e, v)
         div -= s * e
+        total = s
+        if wp.static(pore_water):
+            div -= grad_p - real(p) * e
+            total = s - real(p) * wp.identity(3, dtype=real)
         if in_surface_band and wp.length(e) > zero:
             n = -wp.normalize(e)
-            div += (s * n) * wp.dot(surface_sum, n)
-        return v, s, G, div
+            div += (total * n) * wp.dot(surface_sum, n)
+        return v, s, G, div, p
 
     @wp.kernel(enable_backward=False, module="unique")
     def half_step(
@@ -103,18 +114,25 @@ def taylor_kernels(spec: Spec):
         virt_stress_half: wp.array(dtype=mat33),
         virt_q_out: wp.array(dtype=vec3),
         virt_density_out: wp.array(dtype=real),
+        real_p: wp.array(dtype=wp.float64),
+        water_density: wp.array(dtype=wp.float64),
+        virt_p: wp.array(dtype=wp.float64),
     ):
         i = wp.tid()
         x = virt_q[i]
-        v, s, G, div = fit_fields(x, offsets[i], offsets[i + 1], nbr, real_q, real_mass, real_density, real_v,
-                                  real_stress, h, virt_fit_c[i], virt_fit_inv_den[i], virt_fit_minv[i],
-                                  virt_fit_e[i], real_fit_c, real_fit_inv_den, real_fit_minv, real_fit_e,
-                                  virt_fit_lambda[i] < surface_threshold)  # fmt: skip
+        v, s, G, div, p = fit_fields(x, offsets[i], offsets[i + 1], nbr, real_q, real_mass, real_density, real_v,
+                                     real_stress, h, virt_fit_c[i], virt_fit_inv_den[i], virt_fit_minv[i],
+                                     virt_fit_e[i], real_fit_c, real_fit_inv_den, real_fit_minv, real_fit_e,
+                                     virt_fit_lambda[i] < surface_threshold, real_p)  # fmt: skip
         d, spin = split_velocity_gradient(G)
         mat = virt_material[i]
         rho = virt_density[i]
         hdt = half * dt
-        v_half = v + hdt * (div / rho + gravity)
+        body_force = gravity
+        if wp.static(pore_water):
+            virt_p[i] = p  # pⁿ at the virtual point, for the full step's lagged pressure force
+            body_force = gravity * (one - real(water_density[mat]) / rho)  # buoyant: ∇p_h = ρ_w b
+        v_half = v + hdt * (div / rho + body_force)
         s_half = s + hdt * hooke_rate(d, lam[mat], shear[mat]) + source_increment(s, spin, hdt)
         virt_v_half[i] = v_half
         virt_stress_half[i] = s_half
@@ -156,13 +174,16 @@ def taylor_kernels(spec: Spec):
         v_out: wp.array(dtype=vec3),
         stress_out: wp.array(dtype=mat33),
         density_out: wp.array(dtype=real),
+        virt_p: wp.array(dtype=wp.float64),
+        water_density: wp.array(dtype=wp.float64),
     ):
         a = wp.tid()
         x = q[a]
-        v_half, s_half, G, div = fit_fields(x, offsets[a], offsets[a + 1], nbr, virt_q, virt_mass, virt_density,
+        v_half, s_half, G, div, p = fit_fields(x, offsets[a], offsets[a + 1], nbr, virt_q, virt_mass, virt_density,
                                             virt_v_half, virt_stress_half, h, real_fit_c[a], real_fit_inv_den[a],
                                             real_fit_minv[a], real_fit_e[a], virt_fit_c, virt_fit_inv_den,
-                                            virt_fit_minv, virt_fit_e, real_fit_lambda[a] < surface_threshold)  # fmt: skip
+                                            virt_fit_minv, virt_fit_e, real_fit_lambda[a] < surface_threshold,
+                                            virt_p)  # fmt: skip
         d, spin = split_velocity_gradient(G)
         mat = material[a]
         rho = density[a]
@@ -180,7 +201,10 @@ def taylor_kernels(spec: Spec):
                     mu = h * vr / (wp.dot(xai, xai) + real(0.01) * h * h)
                     rbar = half * (rho + virt_density[i])
                     visc += (virt_mass[i] * alpha * ca * mu / rbar) * grad_W(xai, h)
-        v_out[a] = v[a] + dt * (div / rho + gravity + visc)
+        body_force = gravity
+        if wp.static(pore_water):
+            body_force = gravity * (one - real(water_density[mat]) / rho)
+        v_out[a] = v[a] + dt * (div / rho + body_force + visc)
         stress_out[a] = s_new
         q_out[a] = x + dt * v_half
         density_out[a] = rho * wp.exp(-dt * wp.trace(d))

@@ -1,0 +1,542 @@
+"""Pore-pressure projection of the fractional step (method.md §3), in float64 throughout.
+
+After the Taylor predictor has given v* (with the lagged pressure force), the pressure at tⁿ⁺¹ is
+found from the water mass balance (non-incremental form, solving for the excess pressure p directly
+so that drained values and ghost parities enter as they are):
+
+    p/(QΔt) − ∇·[(k + Δt/ρ) ∇p] = pⁿ/(QΔt) − ∇·v* − ∇·[(Δt/ρ) ∇pⁿ] − ρ_w b·v*/Q
+
+then v = v* − (Δt/ρ) ∇(p − pⁿ). ∇·v* and ∇(p − pⁿ) follow the same real → virtual → real path as
+the effective stress (linear fits of :mod:`warpsph.sph.operators`); the Laplacian is the symmetric
+Morris form on real–real pairs, V_a V_b (κ_a + κ_b)(−x_ab·∇W_ab)/(r² + η²), η = 0.1h, scaled by a
+constant that makes it exact for quadratics on the initial lattice (the plain form is biased there),
+so the system is symmetric positive definite: Jacobi-preconditioned CG or weighted Jacobi solve it.
+Dirichlet rows (drained planes, drained free surface) are eliminated; ghosts enter with the
+pressure parity of their planes: even at impermeable planes, odd about the prescribed pressure at
+drained planes, and with the prescribed gradient ∂p/∂n = q̄/k at inflow planes.
+"""
+
+import functools
+import math
+import warnings
+
+import numpy as np
+import warp as wp
+
+from warpsph.errors import SimulationError
+from warpsph.launching import launch
+from warpsph.model import Model
+from warpsph.sph.kernels import kernel_derivative
+from warpsph.sph.operators import operator_functions
+from warpsph.sph.spec import Spec
+
+DRAINED_SURFACE_EIGENVALUE = 0.6
+"""Real particles whose correction eigenvalue is below this are on a free surface (≈0.5 on a flat
+face, ≈0.66 one row in): with a drained free surface their pore pressure is zero."""
+ETA = 0.1
+"""Morris regularisation η/h."""
+
+
+def laplacian_scale(kind: str, dim: int, ratio: float) -> float:
+    """Constant that makes the Morris Laplacian exact for |x|² on the lattice of spacing 1 (h = ratio)."""
+    span = int(math.ceil(2.0 * ratio))
+    axes = [np.arange(-span, span + 1)] * dim
+    grid = np.stack(np.meshgrid(*axes, indexing="ij"), -1).reshape(-1, dim).astype(float)
+    r = np.linalg.norm(grid, axis=1)
+    r = r[(r > 0) & (r < 2.0 * ratio)]
+    # the operator is Σ V (κ_a + κ_b)(p_a − p_b)(x_ab·∇W)/(r² + η²); for κ = 1 and p = |x|²
+    # (p_a − p_b = −r², x_ab·∇W = r W'(r)) it must give ∇²p = 2 dim
+    morris = 2.0 * np.sum(-(r**2) * r * kernel_derivative(kind, dim, r, ratio) / (r**2 + (ETA * ratio) ** 2))
+    return 2.0 * dim / morris
+
+
+@functools.cache
+def _kernels(spec: Spec):
+    real, vec3 = spec.real, spec.vec3
+    f64 = wp.float64
+    _fit, fit_weights, _inv, _eig = operator_functions(spec)
+    from warpsph.sph.kernels import smoothing_functions
+
+    _W, grad_W = smoothing_functions(spec)
+    zero = f64(0.0)
+
+    @wp.func
+    def plane_excess(p: int, x: vec3, water_density: f64, gravity: vec3, water_table: f64,
+                     drained_pressure: wp.array(dtype=f64), head: wp.array(dtype=f64)):  # fmt: skip
+        """Prescribed excess pore pressure of drained plane p at point x [Pa]."""
+        rho_g = water_density * f64(wp.length(gravity))
+        total = drained_pressure[p]
+        if not wp.isnan(head[p]):
+            total = rho_g * (head[p] - f64(x[1]))
+        hydro = water_density * (f64(gravity[0]) * f64(x[0]) + f64(gravity[1]) * (f64(x[1]) - water_table)
+                                 + f64(gravity[2]) * f64(x[2]))  # fmt: skip
+        return total - hydro
+
+    @wp.func
+    def ghost_affine(g: int, source: wp.array(dtype=wp.int32), chain: wp.array(dtype=wp.vec3i),
+                     q: wp.array(dtype=vec3), plane_axis: wp.array(dtype=wp.int32),
+                     plane_position: wp.array(dtype=real), plane_sign: wp.array(dtype=real),
+                     drainage: wp.array(dtype=wp.int32), drained_pressure: wp.array(dtype=f64),
+                     head: wp.array(dtype=f64), inflow: wp.array(dtype=f64), water_density: f64, k: f64,
+                     gravity: vec3, water_table: f64, homogeneous: int):  # fmt: skip
+        """(s, c) with p_ghost = s p_source + c for ghost g (c = 0 when ``homogeneous``)."""
+        x = q[source[g]]
+        s = f64(1.0)
+        c = zero
+        planes = chain[g]
+        for i in range(3):
+            p = planes[i]
+            if p >= 0:
+                m = plane_axis[p]
+                kind = drainage[p]
+                if kind == 1:
+                    s = -s
+                    c = -c
+                    if homogeneous == 0:
+                        xp = x
+                        xp[m] = plane_position[p]
+                        c += f64(2.0) * plane_excess(p, xp, water_density, gravity, water_table, drained_pressure,
+                                                     head)  # fmt: skip
+                elif kind == 2 and homogeneous == 0 and k > zero:
+                    depth = f64(plane_sign[p] * (plane_position[p] - x[m]))
+                    c += f64(2.0) * depth * inflow[p] / k
+                x[m] = real(2.0) * plane_position[p] - x[m]
+        return s, c
+
+    @wp.kernel(enable_backward=False, module="unique")
+    def pressure_ghosts(
+        n_owned: int, source: wp.array(dtype=wp.int32), chain: wp.array(dtype=wp.vec3i), q: wp.array(dtype=vec3),
+        material: wp.array(dtype=wp.int32), plane_axis: wp.array(dtype=wp.int32),
+        plane_position: wp.array(dtype=real), plane_sign: wp.array(dtype=real), drainage: wp.array(dtype=wp.int32),
+        drained_pressure: wp.array(dtype=f64), head: wp.array(dtype=f64), inflow: wp.array(dtype=f64),
+        water_density: wp.array(dtype=f64), permeability: wp.array(dtype=f64), gravity: vec3, water_table: f64,
+        homogeneous: int, p: wp.array(dtype=f64),
+    ):  # fmt: skip
+        g = wp.tid()
+        src = source[g]
+        mat = material[src]
+        s, c = ghost_affine(g, source, chain, q, plane_axis, plane_position, plane_sign, drainage, drained_pressure,
+                            head, inflow, water_density[mat], permeability[mat], gravity, water_table,
+                            homogeneous)  # fmt: skip
+        p[n_owned + g] = s * p[src] + c
+
+    @wp.kernel(enable_backward=False, module="unique")
+    def fit_vector_at_virtual(
+        h: real, offsets: wp.array(dtype=wp.int32), nbr: wp.array(dtype=wp.int32), vq: wp.array(dtype=vec3),
+        c: wp.array(dtype=vec3), inv_den: wp.array(dtype=real), minv: wp.array(dtype=wp.types.matrix((3, 3), real)),
+        xs: wp.array(dtype=vec3), ms: wp.array(dtype=real), rhos: wp.array(dtype=real), values: wp.array(dtype=vec3),
+        out: wp.array(dtype=vec3),
+    ):  # fmt: skip
+        i = wp.tid()
+        x = vq[i]
+        acc = vec3(real(0.0), real(0.0), real(0.0))
+        for k in range(offsets[i], offsets[i + 1]):
+            b = nbr[k]
+            psi, phi = fit_weights(xs[b] - x, h, c[i], inv_den[i], minv[i])
+            acc += (ms[b] / rhos[b] * psi) * values[b]
+        out[i] = acc
+
+    @wp.kernel(enable_backward=False, module="unique")
+    def fit_scalar_at_virtual(
+        h: real, offsets: wp.array(dtype=wp.int32), nbr: wp.array(dtype=wp.int32), vq: wp.array(dtype=vec3),
+        c: wp.array(dtype=vec3), inv_den: wp.array(dtype=real), minv: wp.array(dtype=wp.types.matrix((3, 3), real)),
+        xs: wp.array(dtype=vec3), ms: wp.array(dtype=real), rhos: wp.array(dtype=real), values: wp.array(dtype=f64),
+        out: wp.array(dtype=f64),
+    ):  # fmt: skip
+        i = wp.tid()
+        x = vq[i]
+        acc = zero
+        for k in range(offsets[i], offsets[i + 1]):
+            b = nbr[k]
+            psi, phi = fit_weights(xs[b] - x, h, c[i], inv_den[i], minv[i])
+            acc += f64(ms[b] / rhos[b] * psi) * values[b]
+        out[i] = acc
+
+    @wp.kernel(enable_backward=False, module="unique")
+    def divergence_at_real(
+        h: real, offsets: wp.array(dtype=wp.int32), nbr: wp.array(dtype=wp.int32), q: wp.array(dtype=vec3),
+        c: wp.array(dtype=vec3), inv_den: wp.array(dtype=real), minv: wp.array(dtype=wp.types.matrix((3, 3), real)),
+        e: wp.array(dtype=vec3), xs: wp.array(dtype=vec3), ms: wp.array(dtype=real), rhos: wp.array(dtype=real),
+        values: wp.array(dtype=vec3), out: wp.array(dtype=f64),
+    ):  # fmt: skip
+        a = wp.tid()
+        x = q[a]
+        fit = vec3(real(0.0), real(0.0), real(0.0))
+        div = zero
+        for k in range(offsets[a], offsets[a + 1]):
+            b = nbr[k]
+            vol = ms[b] / rhos[b]
+            psi, phi = fit_weights(xs[b] - x, h, c[a], inv_den[a], minv[a])
+            fit += (vol * psi) * values[b]
+            div += f64(vol * wp.dot(phi, values[b]))
+        out[a] = div - f64(wp.dot(e[a], fit))
+
+    @wp.kernel(enable_backward=False, module="unique")
+    def correct_velocity(
+        h: real, dt: real, offsets: wp.array(dtype=wp.int32), nbr: wp.array(dtype=wp.int32), q: wp.array(dtype=vec3),
+        c: wp.array(dtype=vec3), inv_den: wp.array(dtype=real), minv: wp.array(dtype=wp.types.matrix((3, 3), real)),
+        e: wp.array(dtype=vec3), xs: wp.array(dtype=vec3), ms: wp.array(dtype=real), rhos: wp.array(dtype=real),
+        dp: wp.array(dtype=f64), density: wp.array(dtype=real), v: wp.array(dtype=vec3),
+    ):  # fmt: skip
+        """v −= (Δt/ρ) ∇Δp with ∇ fitted from the virtual points' Δp."""
+        a = wp.tid()
+        x = q[a]
+        fit = zero
+        grad = wp.vec3d(zero, zero, zero)
+        for k in range(offsets[a], offsets[a + 1]):
+            b = nbr[k]
+            vol = ms[b] / rhos[b]
+            psi, phi = fit_weights(xs[b] - x, h, c[a], inv_den[a], minv[a])
+            fit += f64(vol * psi) * dp[b]
+            grad += wp.vec3d(f64(phi[0]), f64(phi[1]), f64(phi[2])) * (f64(vol) * dp[b])
+        ea = e[a]
+        grad -= wp.vec3d(f64(ea[0]), f64(ea[1]), f64(ea[2])) * fit
+        scale = f64(dt) / f64(density[a])
+        v[a] = v[a] - vec3(real(scale * grad[0]), real(scale * grad[1]), real(scale * grad[2]))
+
+    @wp.kernel(enable_backward=False, module="unique")
+    def mark_dirichlet(
+        n: int, on_drained: wp.array(dtype=wp.int32), drained_value: wp.array(dtype=f64),
+        eigenvalue: wp.array(dtype=real), drained_surface: int, q: wp.array(dtype=vec3),
+        material: wp.array(dtype=wp.int32), water_density: wp.array(dtype=f64), gravity: vec3, water_table: f64,
+        dirichlet: wp.array(dtype=wp.int32), value: wp.array(dtype=f64),
+    ):  # fmt: skip
+        a = wp.tid()
+        dirichlet[a] = 0
+        value[a] = zero
+        if on_drained[a] == 1:
+            dirichlet[a] = 1
+            value[a] = drained_value[a]
+        elif drained_surface == 1 and eigenvalue[a] < real(DRAINED_SURFACE_EIGENVALUE):
+            x = q[a]
+            dirichlet[a] = 1  # p = 0: the excess is minus the hydrostatic pressure
+            value[a] = -water_density[material[a]] * (f64(gravity[0]) * f64(x[0])
+                       + f64(gravity[1]) * (f64(x[1]) - water_table) + f64(gravity[2]) * f64(x[2]))  # fmt: skip
+
+    @wp.kernel(enable_backward=False, module="unique")
+    def assemble(
+        h: real, dt: real, scale: f64, n: int, offsets: wp.array(dtype=wp.int32), nbr: wp.array(dtype=wp.int32),
+        q: wp.array(dtype=vec3), mass: wp.array(dtype=real), density: wp.array(dtype=real),
+        material: wp.array(dtype=wp.int32), permeability: wp.array(dtype=f64), inv_biot: wp.array(dtype=f64),
+        water_density: wp.array(dtype=f64), gravity: vec3, v_star: wp.array(dtype=vec3),
+        div_v_star: wp.array(dtype=f64), p_old: wp.array(dtype=f64), ghost_source: wp.array(dtype=wp.int32),
+        ghost_chain: wp.array(dtype=wp.vec3i), plane_axis: wp.array(dtype=wp.int32),
+        plane_position: wp.array(dtype=real), plane_sign: wp.array(dtype=real), drainage: wp.array(dtype=wp.int32),
+        drained_pressure: wp.array(dtype=f64), head: wp.array(dtype=f64), inflow: wp.array(dtype=f64),
+        water_table: f64, dirichlet: wp.array(dtype=wp.int32), value: wp.array(dtype=f64),
+        weight: wp.array(dtype=f64), column: wp.array(dtype=wp.int32), sign: wp.array(dtype=f64),
+        diag: wp.array(dtype=f64), rhs: wp.array(dtype=f64),
+    ):  # fmt: skip
+        a = wp.tid()
+        if dirichlet[a] == 1:
+            diag[a] = f64(1.0)
+            rhs[a] = value[a]
+            for k in range(offsets[a], offsets[a + 1]):
+                weight[k] = zero
+            return
+        x = q[a]
+        vol_a = f64(mass[a] / density[a])
+        mat = material[a]
+        k_a = permeability[mat]
+        dt_rho_a = f64(dt) / f64(density[a])
+        d = vol_a * inv_biot[mat] / f64(dt)
+        b = d * p_old[a] - vol_a * div_v_star[a] - vol_a * inv_biot[mat] * water_density[mat] * f64(
+            wp.dot(gravity, v_star[a]))
+        eta2 = f64(ETA * ETA) * f64(h * h)
+        for k in range(offsets[a], offsets[a + 1]):
+            j = nbr[k]
+            r = x - q[j]
+            morris = -f64(wp.dot(r, grad_W(r, h))) / (f64(wp.dot(r, r)) + eta2) * scale
+            vol_j = f64(mass[j] / density[j])
+            mat_j = material[j]
+            w = vol_a * vol_j * (k_a + permeability[mat_j] + dt_rho_a + f64(dt) / f64(density[j])) * morris
+            w_dt = vol_a * vol_j * (dt_rho_a + f64(dt) / f64(density[j])) * morris
+            b += w_dt * (p_old[a] - p_old[j])  # −V ∇·((Δt/ρ)∇pⁿ), ghosts carry their parity values
+            d += w
+            col = j
+            s = f64(1.0)
+            cst = zero
+            if j >= n:
+                g = j - n
+                col = ghost_source[g]
+                s, cst = ghost_affine(g, ghost_source, ghost_chain, q, plane_axis, plane_position, plane_sign,
+                                      drainage, drained_pressure, head, inflow, water_density[mat_j],
+                                      permeability[mat_j], gravity, water_table, 0)  # fmt: skip
+            b += w * cst
+            if dirichlet[col] == 1:
+                b += w * s * value[col]
+                w = zero
+            weight[k] = w
+            column[k] = col
+            sign[k] = s
+        diag[a] = d
+        rhs[a] = b
+
+    @wp.func
+    def apply_row(a: int, offsets: wp.array(dtype=wp.int32), weight: wp.array(dtype=f64),
+                  column: wp.array(dtype=wp.int32), sign: wp.array(dtype=f64), diag: wp.array(dtype=f64),
+                  x: wp.array(dtype=f64)):  # fmt: skip
+        y = diag[a] * x[a]
+        for k in range(offsets[a], offsets[a + 1]):
+            y -= weight[k] * sign[k] * x[column[k]]
+        return y
+
+    @wp.kernel(enable_backward=False, module="unique")
+    def matvec_dot(
+        offsets: wp.array(dtype=wp.int32), weight: wp.array(dtype=f64), column: wp.array(dtype=wp.int32),
+        sign: wp.array(dtype=f64), diag: wp.array(dtype=f64), x: wp.array(dtype=f64), y: wp.array(dtype=f64),
+        dot: wp.array(dtype=f64),
+    ):  # fmt: skip
+        """y = A x and dot += x·y."""
+        a = wp.tid()
+        ya = apply_row(a, offsets, weight, column, sign, diag, x)
+        y[a] = ya
+        wp.atomic_add(dot, 0, x[a] * ya)
+
+    @wp.kernel(enable_backward=False, module="unique")
+    def residual(
+        offsets: wp.array(dtype=wp.int32), weight: wp.array(dtype=f64), column: wp.array(dtype=wp.int32),
+        sign: wp.array(dtype=f64), diag: wp.array(dtype=f64), x: wp.array(dtype=f64), rhs: wp.array(dtype=f64),
+        r: wp.array(dtype=f64), norms: wp.array(dtype=f64),
+    ):  # fmt: skip
+        """r = b − A x; norms += (r·r, b·b)."""
+        a = wp.tid()
+        ra = rhs[a] - apply_row(a, offsets, weight, column, sign, diag, x)
+        r[a] = ra
+        wp.atomic_add(norms, 0, ra * ra)
+        wp.atomic_add(norms, 1, rhs[a] * rhs[a])
+
+    @wp.kernel(enable_backward=False, module="unique")
+    def precondition(r: wp.array(dtype=f64), diag: wp.array(dtype=f64), z: wp.array(dtype=f64),
+                     dots: wp.array(dtype=f64)):  # fmt: skip
+        """z = r / diag; dots += (r·z, r·r)."""
+        a = wp.tid()
+        za = r[a] / diag[a]
+        z[a] = za
+        wp.atomic_add(dots, 0, r[a] * za)
+        wp.atomic_add(dots, 1, r[a] * r[a])
+
+    @wp.kernel(enable_backward=False, module="unique")
+    def cg_step(alpha: f64, d: wp.array(dtype=f64), Ad: wp.array(dtype=f64), x: wp.array(dtype=f64),
+                r: wp.array(dtype=f64)):  # fmt: skip
+        a = wp.tid()
+        x[a] = x[a] + alpha * d[a]
+        r[a] = r[a] - alpha * Ad[a]
+
+    @wp.kernel(enable_backward=False, module="unique")
+    def cg_direction(beta: f64, z: wp.array(dtype=f64), d: wp.array(dtype=f64)):
+        a = wp.tid()
+        d[a] = z[a] + beta * d[a]
+
+    @wp.kernel(enable_backward=False, module="unique")
+    def jacobi_sweep(
+        omega: f64, offsets: wp.array(dtype=wp.int32), weight: wp.array(dtype=f64), column: wp.array(dtype=wp.int32),
+        sign: wp.array(dtype=f64), diag: wp.array(dtype=f64), x: wp.array(dtype=f64), rhs: wp.array(dtype=f64),
+        x_new: wp.array(dtype=f64), norms: wp.array(dtype=f64),
+    ):  # fmt: skip
+        """x_new = x + ω (b − A x)/diag; norms += (r·r, b·b) of x."""
+        a = wp.tid()
+        ra = rhs[a] - apply_row(a, offsets, weight, column, sign, diag, x)
+        x_new[a] = x[a] + omega * ra / diag[a]
+        wp.atomic_add(norms, 0, ra * ra)
+        wp.atomic_add(norms, 1, rhs[a] * rhs[a])
+
+    @wp.kernel(enable_backward=False, module="unique")
+    def difference(a_: wp.array(dtype=f64), b_: wp.array(dtype=f64), out: wp.array(dtype=f64)):
+        i = wp.tid()
+        out[i] = a_[i] - b_[i]
+
+    return dict(
+        pressure_ghosts=pressure_ghosts, fit_vector_at_virtual=fit_vector_at_virtual,
+        fit_scalar_at_virtual=fit_scalar_at_virtual, divergence_at_real=divergence_at_real,
+        correct_velocity=correct_velocity, mark_dirichlet=mark_dirichlet, assemble=assemble, matvec_dot=matvec_dot,
+        residual=residual, precondition=precondition, cg_step=cg_step, cg_direction=cg_direction,
+        jacobi_sweep=jacobi_sweep, difference=difference,
+    )  # fmt: skip
+
+
+class PressureProjection:
+    """Assembles and solves the pressure equation and corrects the velocity (two-set scheme)."""
+
+    def __init__(self, model: Model, solver):
+        self.model, self.solver = model, solver
+        m, dev = model, model.device
+        n, ne, nv = m.particle_count, m.particle_total, m.virtual_total
+        f64 = wp.float64
+        self.k = _kernels(m.spec)
+        settings = m.scene.pressure
+        self.settings = settings
+        self.scale = laplacian_scale(m.spec.kernel, m.spec.dim, m.scene.simulation.smoothing_ratio)
+        self.div_v_star = wp.zeros(n, dtype=f64, device=dev)
+        self.virtual_v_star = wp.zeros(nv, dtype=m.spec.vec3, device=dev)
+        self.p_old = wp.zeros(ne, dtype=f64, device=dev)
+        self.dp = wp.zeros(ne, dtype=f64, device=dev)
+        self.virtual_dp = wp.zeros(nv, dtype=f64, device=dev)
+        self.dirichlet = wp.zeros(n, dtype=wp.int32, device=dev)
+        self.value = wp.zeros(n, dtype=f64, device=dev)
+        self.diag = wp.zeros(n, dtype=f64, device=dev)
+        self.rhs = wp.zeros(n, dtype=f64, device=dev)
+        self.work = [wp.zeros(n, dtype=f64, device=dev) for _ in range(4)]
+        self.norms = wp.zeros(2, dtype=f64, device=dev)
+        self.weight = self.column = self.sign = None
+        on, val = self._drained_plane_particles()
+        self.on_drained = wp.array(on, dtype=wp.int32, device=dev)
+        self.drained_value = wp.array(val, dtype=f64, device=dev)
+        self.iterations: list[int] = []
+        self.residuals: list[float] = []
+        self.failures = 0
+
+    def _drained_plane_particles(self):
+        """Owned particles lying on drained planes and their prescribed excess pressure (host)."""
+        m, pw = self.model, self.model.pore
+        n = m.particle_count
+        on, val = np.zeros(n, np.int32), np.zeros(n)
+        drainage = pw.plane_drainage.numpy()
+        pressure, head = pw.plane_pressure.numpy(), pw.plane_head.numpy()
+        x = m.particle_x0
+        rho_w = pw.material_water_density.numpy()[m.particle_material.numpy()[:n]]
+        hydro = pw.hydrostatic(x, rho_w)
+        g = float(np.linalg.norm(pw.gravity))
+        for a, planes in zip(m.constraint_particle.numpy(), m.constraint_planes.numpy().reshape(-1, 3)):
+            for p in planes[planes >= 0]:
+                if drainage[p] == 1:
+                    total = pressure[p] if np.isnan(head[p]) else rho_w[a] * g * (head[p] - x[a, 1])
+                    on[a], val[a] = 1, total - hydro[a]
+        return on, val
+
+    def _plane_args(self):
+        m, pw, b = self.model, self.model.pore, self.solver.boundaries
+        return [m.plane_axis, b.plane_position, m.plane_sign, pw.plane_drainage, pw.plane_pressure, pw.plane_head,
+                pw.plane_inflow]  # fmt: skip
+
+    def update_ghosts(self, q, p, homogeneous: bool, virtual: bool = False) -> None:
+        """Pressure-parity values of the ghosts of the real (or virtual) set in ``p``."""
+        m, pw = self.model, self.model.pore
+        if virtual:
+            n, src, chain, mat, count = (m.virtual_count, m.virtual_ghost_source, m.virtual_ghost_planes,
+                                         m.virtual_material, m.virtual_ghost_count)  # fmt: skip
+        else:
+            n, src, chain, mat, count = (m.particle_count, m.particle_ghost_source, m.particle_ghost_planes,
+                                         m.particle_material, m.particle_ghost_count)  # fmt: skip
+        args = self._plane_args()
+        launch(self.k["pressure_ghosts"], count,
+               [n, src, chain, q, mat, args[0], args[1], args[2], *args[3:], pw.material_water_density,
+                pw.material_permeability, m.spec.vec3(*pw.gravity), wp.float64(pw.water_table), int(homogeneous), p],
+               m.device)  # fmt: skip
+
+    # -- the projection ---------------------------------------------------------------------------
+    def project(self, si, so, dt: float) -> None:
+        """Given v* in ``so.particle_v`` and pⁿ in ``si``, solve for pⁿ⁺¹ into ``so`` and correct v."""
+        m, pw, sol = self.model, self.model.pore, self.solver
+        real, dev, n = m.spec.real, m.device, m.particle_count
+        h = real(m.h)
+        rf, vf = sol.real_fits, sol.virtual_fits
+        # ∇·v* along real → virtual → real (geometry at tⁿ, v* with kinematic ghost parities)
+        sol.boundaries.update_real_ghosts(si.particle_q, so.particle_v, so.particle_stress, so.particle_density)
+        nl_v = sol.virtual_to_real
+        launch(self.k["fit_vector_at_virtual"], m.virtual_count,
+               [h, nl_v.offsets, nl_v.indices, si.virtual_q, vf.c, vf.inv_den, vf.minv, si.particle_q,
+                m.particle_mass, si.particle_density, so.particle_v, self.virtual_v_star], dev)  # fmt: skip
+        sol.boundaries.update_virtual_ghosts(si.virtual_q, self.virtual_v_star, sol.virtual_stress,
+                                             si.virtual_density)  # fmt: skip
+        nl_r = sol.real_to_virtual
+        launch(self.k["divergence_at_real"], n,
+               [h, nl_r.offsets, nl_r.indices, si.particle_q, rf.c, rf.inv_den, rf.minv, rf.e, si.virtual_q,
+                m.virtual_mass, si.virtual_density, self.virtual_v_star, self.div_v_star], dev)  # fmt: skip
+        # assemble on the real-real list
+        nl = sol.real_to_real
+        if self.weight is None or self.weight.shape[0] < nl.indices.shape[0]:
+            size = nl.indices.shape[0]
+            self.weight = wp.zeros(size, dtype=wp.float64, device=dev)
+            self.column = wp.zeros(size, dtype=wp.int32, device=dev)
+            self.sign = wp.zeros(size, dtype=wp.float64, device=dev)
+        wp.copy(self.p_old, si.particle_pore_pressure)
+        gravity = m.spec.vec3(*pw.gravity)
+        drained_surface = int(self.settings.free_surface == "drained")
+        launch(self.k["mark_dirichlet"], n,
+               [n, self.on_drained, self.drained_value, rf.smallest_eigenvalue, drained_surface, si.particle_q,
+                m.particle_material, pw.material_water_density, gravity, wp.float64(pw.water_table), self.dirichlet,
+                self.value], dev)  # fmt: skip
+        args = self._plane_args()
+        launch(self.k["assemble"], n,
+               [h, real(dt), wp.float64(self.scale), n, nl.offsets, nl.indices, si.particle_q, m.particle_mass,
+                si.particle_density, m.particle_material, pw.material_permeability, pw.material_inv_biot,
+                pw.material_water_density, gravity, so.particle_v, self.div_v_star, self.p_old,
+                m.particle_ghost_source, m.particle_ghost_planes, *args, wp.float64(pw.water_table), self.dirichlet,
+                self.value, self.weight, self.column, self.sign, self.diag, self.rhs], dev)  # fmt: skip
+        # solve into a copy of pⁿ (owned part), Dirichlet rows already at their values
+        x = so.particle_pore_pressure
+        wp.copy(x, self.p_old, count=n)
+        iterations, rel = self._cg(x) if self.settings.solver == "cg" else self._jacobi(x)
+        self.iterations.append(iterations)
+        self.residuals.append(rel)
+        if not rel <= self.settings.tolerance:
+            self.failures += 1
+            message = (f"pressure solve missed its tolerance {self.settings.tolerance:g}: relative residual "
+                       f"{rel:.3g} after {iterations} iterations ({self.settings.solver})")  # fmt: skip
+            if self.settings.on_failure == "stop":
+                raise SimulationError(message)
+            if self.failures == 1:
+                warnings.warn(message + " (further misses are counted in run.json)", stacklevel=2)
+        # v = v* − (Δt/ρ) ∇(p − pⁿ), along the same path
+        self.update_ghosts(si.particle_q, x, homogeneous=False)
+        launch(self.k["difference"], m.particle_total, [x, self.p_old, self.dp], dev)
+        self.update_ghosts(si.particle_q, self.dp, homogeneous=True)
+        launch(self.k["fit_scalar_at_virtual"], m.virtual_count,
+               [h, nl_v.offsets, nl_v.indices, si.virtual_q, vf.c, vf.inv_den, vf.minv, si.particle_q,
+                m.particle_mass, si.particle_density, self.dp, self.virtual_dp], dev)  # fmt: skip
+        self.update_ghosts(si.virtual_q, self.virtual_dp, homogeneous=True, virtual=True)
+        launch(self.k["correct_velocity"], n,
+               [h, real(dt), nl_r.offsets, nl_r.indices, si.particle_q, rf.c, rf.inv_den, rf.minv, rf.e,
+                si.virtual_q, m.virtual_mass, si.virtual_density, self.virtual_dp, so.particle_density,
+                so.particle_v], dev)  # fmt: skip
+
+    def _matrix(self):
+        return [self.solver.real_to_real.offsets, self.weight, self.column, self.sign, self.diag]
+
+    def _cg(self, x):
+        n, dev, s = self.model.particle_count, self.model.device, self.settings
+        r, z, d, Ad = self.work
+        self.norms.zero_()
+        launch(self.k["residual"], n, [*self._matrix(), x, self.rhs, r, self.norms], dev)
+        rr, bb = self.norms.numpy()
+        target = s.tolerance**2 * max(bb, 1e-300)
+        if rr <= target:
+            return 0, math.sqrt(rr / max(bb, 1e-300))
+        self.norms.zero_()
+        launch(self.k["precondition"], n, [r, self.diag, z, self.norms], dev)
+        rz = float(self.norms.numpy()[0])
+        wp.copy(d, z)
+        for it in range(1, s.max_iterations + 1):
+            self.norms.zero_()
+            launch(self.k["matvec_dot"], n, [*self._matrix(), d, Ad, self.norms], dev)
+            dAd = float(self.norms.numpy()[0])
+            if dAd <= 0.0:
+                break
+            launch(self.k["cg_step"], n, [wp.float64(rz / dAd), d, Ad, x, r], dev)
+            self.norms.zero_()
+            launch(self.k["precondition"], n, [r, self.diag, z, self.norms], dev)
+            rz_new, rr = (float(v) for v in self.norms.numpy())
+            if rr <= target:
+                return it, math.sqrt(rr / bb)
+            launch(self.k["cg_direction"], n, [wp.float64(rz_new / rz), z, d], dev)
+            rz = rz_new
+        return s.max_iterations, math.sqrt(rr / max(bb, 1e-300))
+
+    def _jacobi(self, x):
+        n, dev, s = self.model.particle_count, self.model.device, self.settings
+        other = self.work[0]
+        current, nxt = x, other
+        rel = math.inf
+        for it in range(s.max_iterations + 1):
+            self.norms.zero_()
+            launch(self.k["jacobi_sweep"], n,
+                   [wp.float64(s.jacobi_weight), *self._matrix(), current, self.rhs, nxt, self.norms], dev)
+            rr, bb = self.norms.numpy()
+            rel = math.sqrt(rr / max(bb, 1e-300))
+            if rel <= s.tolerance:
+                break  # ``current`` met the tolerance
+            current, nxt = nxt, current
+        if current is not x:
+            wp.copy(x, current, count=n)
+        return it, rel
