@@ -59,14 +59,20 @@ class RunSummary:
 
 
 def host_fields(model: Model, state: State) -> dict[str, np.ndarray]:
-    """Owned-particle fields on the host: position, velocity (N,3) [m, m/s], stress (N,3,3) [Pa], density."""
+    """Owned-particle fields on the host: position, velocity (N,3) [m, m/s], stress (N,3,3) [Pa],
+    density [kg/m³] and, with pore water, the total pore pressure (N,) [Pa]."""
     n = model.particle_count
-    return {
+    fields = {
         "position": state.particle_q.numpy()[:n].astype(np.float64),
         "velocity": state.particle_v.numpy()[:n].astype(np.float64),
         "stress": state.particle_stress.numpy()[:n].astype(np.float64),
         "density": state.particle_density.numpy()[:n].astype(np.float64),
     }
+    if model.pore is not None:
+        water_density = model.pore.material_water_density.numpy()[model.particle_material.numpy()[:n]]
+        hydrostatic = model.pore.hydrostatic(fields["position"], water_density)
+        fields["pore_pressure"] = state.particle_pore_pressure.numpy()[:n] + hydrostatic
+    return fields
 
 
 class Run:
@@ -132,6 +138,14 @@ class Run:
         for name, value in self.probes.sample(fields).items():
             self.results.append_series(name, self.step_index, self.time, value)
 
+    def _record_pressure_solve(self) -> None:
+        """Iterations and final relative residual of this step's pressure solve, as series."""
+        projection = self.solver.projection
+        if projection is None:
+            return
+        self.results.append_series("pressure_iterations", self.step_index, self.time, projection.iterations[-1])
+        self.results.append_series("pressure_residual", self.step_index, self.time, projection.residuals[-1])
+
     def _write_frame(self) -> None:
         fields = host_fields(self.model, self.state)
         frame = {"position": fields["position"]}
@@ -142,6 +156,10 @@ class Run:
             frame["displacement"] = fields["position"] - self.model.particle_x0
         if "stress" in wanted:
             frame["stress"] = tensor_to_voigt(fields["stress"])
+        if "pore_pressure" in fields:
+            frame["pore_pressure"] = fields["pore_pressure"]
+        if "darcy_velocity" in wanted:
+            frame["darcy_velocity"] = self.solver.projection.darcy_velocity(self.state)
         self._sample_probes(fields)
         self.results.write_frame(self.step_index, self.time, frame)
         if self.scene.output.xdmf:
@@ -170,6 +188,15 @@ class Run:
             **asdict(self.summary),
             "particle_steps_per_second": self.summary.particle_steps_per_second,
         }
+        projection = self.solver.projection
+        if projection is not None and projection.iterations:
+            its = np.asarray(projection.iterations)
+            record["pressure_solve"] = {
+                "solver": self.scene.pressure.solver, "tolerance": self.scene.pressure.tolerance,
+                "iterations_total": int(its.sum()), "iterations_mean": float(its.mean()),
+                "iterations_max": int(its.max()), "residual_max": float(np.max(projection.residuals)),
+                "missed_tolerance": projection.failures,
+            }  # fmt: skip
         (self.out / RECORD).write_text(json.dumps(record, indent=2, default=str))
 
     # -- the loop ---------------------------------------------------------------------------------
@@ -217,6 +244,7 @@ class Run:
                 self.step_index += 1
                 self.summary.steps += 1
                 self._check()
+                self._record_pressure_solve()
                 last = self.step_index == n_end
                 if self.step_index % frame_every == 0 or last:
                     self._write_frame()

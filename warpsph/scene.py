@@ -289,7 +289,7 @@ class Probe:
     (2D) or force (3D) [N/m or N] that the boundary or load named ``boundary`` exerts on the body,
     component ``field`` ("x", "y" or "z").
     Fields: velocity_x|y|z [m/s], displacement_x|y|z [m], stress_xx|yy|zz|yz|xz|xy [Pa],
-    mean_stress [Pa], von_mises [Pa].
+    mean_stress [Pa], von_mises [Pa], pore_pressure [Pa] (total; pore_water only).
     """
 
     name: str = "probe"

@@ -5,11 +5,13 @@ Each field has its own parity across a plane with outward normal n = s e_m (meth
 
 | plane     | velocity                    | stress                                         |
 |-----------|-----------------------------|------------------------------------------------|
-| fixed     | odd (v_g = −v)              | even (σ_g = σ)                                 |
-| velocity  | odd about v̄ (2v̄ − v)        | even                                           |
-| slip      | normal odd, tangential even | mirrored, σ_g = RσR (shear odd, normal even)   |
+| fixed     | odd (v_g = −v)              | even (σ_g = σ)*                                |
+| velocity  | odd about v̄ (2v̄ − v)        | even*                                          |
+| slip      | normal odd, tangential even | mirrored, σ_g = RσR (shear odd, normal even*)  |
 | traction  | even                        | row m odd about the traction: σ_g,mk = 2 s t̄_k − σ_mk |
 
+*σ_nn continues with the gradient −(ρ − ρ_w) b·n that equilibrium at a wall implies (zero without
+body force): pure even parity put a kink into a geostatic stress and moved a column at rest.
 Particles that lie on a plane get the plane's prescribed values after every update. Fixed and slip
 planes stay where they are; traction and velocity planes are material faces and follow the mean
 position of the particles lying on them (mirroring across a plane the body has moved away from
@@ -33,6 +35,7 @@ from warpsph.sph.spec import Spec
 def _kernels(spec: Spec):
     real, vec3, mat33 = spec.real, spec.vec3, spec.mat33
     two = real(2.0)
+    pore_water = spec.effects.pore_water
 
     @wp.func
     def traction_here(p: int, x: vec3, axis: int, vector: wp.array(dtype=vec3), lo: wp.array(dtype=vec3),
@@ -59,6 +62,9 @@ def _kernels(spec: Spec):
         plane_lo: wp.array(dtype=vec3),
         plane_hi: wp.array(dtype=vec3),
         factor: wp.array(dtype=real),
+        gravity: vec3,
+        material: wp.array(dtype=wp.int32),
+        water_density: wp.array(dtype=wp.float64),
         q: wp.array(dtype=vec3),
         v: wp.array(dtype=vec3),
         stress: wp.array(dtype=mat33),
@@ -69,13 +75,20 @@ def _kernels(spec: Spec):
         x = q[src]
         u = v[src]
         s = stress[src]
+        weight = density[src]  # the stress gradient at a wall balances (ρ − ρ_w) b
+        if wp.static(pore_water):
+            weight = weight - real(water_density[material[src]])
         planes = chain[g]
         for c in range(3):
             p = planes[c]
             if p >= 0:
                 m = plane_axis[p]
                 kind = plane_kind[p]
+                depth = plane_sign[p] * (plane_position[p] - x[m])
                 x[m] = two * plane_position[p] - x[m]
+                if kind != PLANE_TRACTION:
+                    # at rest against a wall ∂σ_nn/∂n = −ρ b·n: continue σ_nn linearly, not evenly
+                    s[m, m] = s[m, m] - two * depth * weight * plane_sign[p] * gravity[m]
                 if kind == PLANE_FIXED:
                     u = -u
                 elif kind == PLANE_VELOCITY:
@@ -226,21 +239,26 @@ class Boundaries:
         return [m.plane_axis, self.plane_position, m.plane_sign, m.plane_kind, m.plane_vector,
                 m.plane_extent_lo, m.plane_extent_hi, self.plane_factor]  # fmt: skip
 
+    def _body_force_args(self, material):
+        m = self.model
+        water = m.pore.material_water_density if m.pore is not None else None
+        return [m.spec.vec3(*m.gravity), material, water]
+
     def update_real_ghosts(self, q, v, stress, density) -> None:
         """Ghost entries of the real set from their sources."""
         m = self.model
         update_ghosts, *_ = _kernels(m.spec)
         launch(update_ghosts, m.particle_ghost_count,
-               [m.particle_count, m.particle_ghost_source, m.particle_ghost_planes, *self._plane_args(), q, v,
-                stress, density], m.device)  # fmt: skip
+               [m.particle_count, m.particle_ghost_source, m.particle_ghost_planes, *self._plane_args(),
+                *self._body_force_args(m.particle_material), q, v, stress, density], m.device)  # fmt: skip
 
     def update_virtual_ghosts(self, q, v, stress, density) -> None:
         """Ghost entries of the virtual set from their sources."""
         m = self.model
         update_ghosts, *_ = _kernels(m.spec)
         launch(update_ghosts, m.virtual_ghost_count,
-               [m.virtual_count, m.virtual_ghost_source, m.virtual_ghost_planes, *self._plane_args(), q, v,
-                stress, density], m.device)  # fmt: skip
+               [m.virtual_count, m.virtual_ghost_source, m.virtual_ghost_planes, *self._plane_args(),
+                *self._body_force_args(m.virtual_material), q, v, stress, density], m.device)  # fmt: skip
 
     def prescribe_virtual(self, v_half) -> None:
         """Set the half-step velocity of the virtual points inside velocity regions."""

@@ -172,13 +172,13 @@ def _kernels(spec: Spec):
         out[a] = div - f64(wp.dot(e[a], fit))
 
     @wp.kernel(enable_backward=False, module="unique")
-    def correct_velocity(
-        h: real, dt: real, offsets: wp.array(dtype=wp.int32), nbr: wp.array(dtype=wp.int32), q: wp.array(dtype=vec3),
+    def gradient_at_real(
+        h: real, offsets: wp.array(dtype=wp.int32), nbr: wp.array(dtype=wp.int32), q: wp.array(dtype=vec3),
         c: wp.array(dtype=vec3), inv_den: wp.array(dtype=real), minv: wp.array(dtype=wp.types.matrix((3, 3), real)),
         e: wp.array(dtype=vec3), xs: wp.array(dtype=vec3), ms: wp.array(dtype=real), rhos: wp.array(dtype=real),
-        dp: wp.array(dtype=f64), density: wp.array(dtype=real), v: wp.array(dtype=vec3),
+        values: wp.array(dtype=f64), out: wp.array(dtype=wp.vec3d),
     ):  # fmt: skip
-        """v −= (Δt/ρ) ∇Δp with ∇ fitted from the virtual points' Δp."""
+        """∇f at real particles fitted from the virtual points' f."""
         a = wp.tid()
         x = q[a]
         fit = zero
@@ -187,12 +187,25 @@ def _kernels(spec: Spec):
             b = nbr[k]
             vol = ms[b] / rhos[b]
             psi, phi = fit_weights(xs[b] - x, h, c[a], inv_den[a], minv[a])
-            fit += f64(vol * psi) * dp[b]
-            grad += wp.vec3d(f64(phi[0]), f64(phi[1]), f64(phi[2])) * (f64(vol) * dp[b])
+            fit += f64(vol * psi) * values[b]
+            grad += wp.vec3d(f64(phi[0]), f64(phi[1]), f64(phi[2])) * (f64(vol) * values[b])
         ea = e[a]
-        grad -= wp.vec3d(f64(ea[0]), f64(ea[1]), f64(ea[2])) * fit
-        scale = f64(dt) / f64(density[a])
-        v[a] = v[a] - vec3(real(scale * grad[0]), real(scale * grad[1]), real(scale * grad[2]))
+        out[a] = grad - wp.vec3d(f64(ea[0]), f64(ea[1]), f64(ea[2])) * fit
+
+    @wp.kernel(enable_backward=False, module="unique")
+    def correct_velocity(dt: real, grad_dp: wp.array(dtype=wp.vec3d), density: wp.array(dtype=real),
+                         v: wp.array(dtype=vec3)):  # fmt: skip
+        """v −= (Δt/ρ) ∇Δp."""
+        a = wp.tid()
+        g = grad_dp[a] * (f64(dt) / f64(density[a]))
+        v[a] = v[a] - vec3(real(g[0]), real(g[1]), real(g[2]))
+
+    @wp.kernel(enable_backward=False, module="unique")
+    def darcy(grad_p: wp.array(dtype=wp.vec3d), material: wp.array(dtype=wp.int32),
+              permeability: wp.array(dtype=f64), w: wp.array(dtype=wp.vec3d)):  # fmt: skip
+        """w = −k ∇p_excess [m/s]."""
+        a = wp.tid()
+        w[a] = -permeability[material[a]] * grad_p[a]
 
     @wp.kernel(enable_backward=False, module="unique")
     def mark_dirichlet(
@@ -224,7 +237,7 @@ def _kernels(spec: Spec):
         plane_position: wp.array(dtype=real), plane_sign: wp.array(dtype=real), drainage: wp.array(dtype=wp.int32),
         drained_pressure: wp.array(dtype=f64), head: wp.array(dtype=f64), inflow: wp.array(dtype=f64),
         water_table: f64, dirichlet: wp.array(dtype=wp.int32), value: wp.array(dtype=f64),
-        weight: wp.array(dtype=f64), column: wp.array(dtype=wp.int32), sign: wp.array(dtype=f64),
+        face_factor: wp.array(dtype=f64), weight: wp.array(dtype=f64), column: wp.array(dtype=wp.int32), sign: wp.array(dtype=f64),
         diag: wp.array(dtype=f64), rhs: wp.array(dtype=f64),
     ):  # fmt: skip
         a = wp.tid()
@@ -235,7 +248,7 @@ def _kernels(spec: Spec):
                 weight[k] = zero
             return
         x = q[a]
-        vol_a = f64(mass[a] / density[a])
+        vol_a = f64(mass[a] / density[a]) * face_factor[a]  # a particle on a plane owns half its cell
         mat = material[a]
         k_a = permeability[mat]
         dt_rho_a = f64(dt) / f64(density[a])
@@ -349,7 +362,7 @@ def _kernels(spec: Spec):
     return dict(
         pressure_ghosts=pressure_ghosts, fit_vector_at_virtual=fit_vector_at_virtual,
         fit_scalar_at_virtual=fit_scalar_at_virtual, divergence_at_real=divergence_at_real,
-        correct_velocity=correct_velocity, mark_dirichlet=mark_dirichlet, assemble=assemble, matvec_dot=matvec_dot,
+        gradient_at_real=gradient_at_real, correct_velocity=correct_velocity, darcy=darcy, mark_dirichlet=mark_dirichlet, assemble=assemble, matvec_dot=matvec_dot,
         residual=residual, precondition=precondition, cg_step=cg_step, cg_direction=cg_direction,
         jacobi_sweep=jacobi_sweep, difference=difference,
     )  # fmt: skip
@@ -372,6 +385,7 @@ class PressureProjection:
         self.p_old = wp.zeros(ne, dtype=f64, device=dev)
         self.dp = wp.zeros(ne, dtype=f64, device=dev)
         self.virtual_dp = wp.zeros(nv, dtype=f64, device=dev)
+        self.grad = wp.zeros(n, dtype=wp.vec3d, device=dev)
         self.dirichlet = wp.zeros(n, dtype=wp.int32, device=dev)
         self.value = wp.zeros(n, dtype=f64, device=dev)
         self.diag = wp.zeros(n, dtype=f64, device=dev)
@@ -381,10 +395,21 @@ class PressureProjection:
         self.weight = self.column = self.sign = None
         on, val = self._drained_plane_particles()
         self.on_drained = wp.array(on, dtype=wp.int32, device=dev)
+        self.face_factor = wp.array(self._face_factor(), dtype=f64, device=dev)
         self.drained_value = wp.array(val, dtype=f64, device=dev)
         self.iterations: list[int] = []
         self.residuals: list[float] = []
         self.failures = 0
+
+    def _face_factor(self) -> np.ndarray:
+        """½ per plane a particle lies on: the share of its cell inside the body. Scaling its row by
+        it keeps the matrix symmetric once ghosts are folded onto their sources (a particle on a
+        plane is its own mirror, so it meets each neighbour's mirror as well as the neighbour)."""
+        m = self.model
+        factor = np.ones(m.particle_count)
+        for a, planes in zip(m.constraint_particle.numpy(), m.constraint_planes.numpy().reshape(-1, 3)):
+            factor[a] = 0.5 ** int(np.count_nonzero(planes >= 0))
+        return factor
 
     def _drained_plane_particles(self):
         """Owned particles lying on drained planes and their prescribed excess pressure (host)."""
@@ -463,7 +488,7 @@ class PressureProjection:
                 si.particle_density, m.particle_material, pw.material_permeability, pw.material_inv_biot,
                 pw.material_water_density, gravity, so.particle_v, self.div_v_star, self.p_old,
                 m.particle_ghost_source, m.particle_ghost_planes, *args, wp.float64(pw.water_table), self.dirichlet,
-                self.value, self.weight, self.column, self.sign, self.diag, self.rhs], dev)  # fmt: skip
+                self.value, self.face_factor, self.weight, self.column, self.sign, self.diag, self.rhs], dev)  # fmt: skip
         # solve into a copy of pⁿ (owned part), Dirichlet rows already at their values
         x = so.particle_pore_pressure
         wp.copy(x, self.p_old, count=n)
@@ -481,15 +506,36 @@ class PressureProjection:
         # v = v* − (Δt/ρ) ∇(p − pⁿ), along the same path
         self.update_ghosts(si.particle_q, x, homogeneous=False)
         launch(self.k["difference"], m.particle_total, [x, self.p_old, self.dp], dev)
-        self.update_ghosts(si.particle_q, self.dp, homogeneous=True)
+        self._gradient(si, self.dp, homogeneous=True)
+        launch(self.k["correct_velocity"], n, [real(dt), self.grad, so.particle_density, so.particle_v], dev)
+
+    def _gradient(self, state, values, homogeneous: bool) -> None:
+        """``self.grad`` = ∇values at the real particles via the virtual points (geometry of ``state``);
+        ``values`` has its real ghosts set; virtual ghosts get the same parity."""
+        m, sol = self.model, self.solver
+        h, dev = m.spec.real(m.h), m.device
+        rf, vf = sol.real_fits, sol.virtual_fits
+        nl_v, nl_r = sol.virtual_to_real, sol.real_to_virtual
         launch(self.k["fit_scalar_at_virtual"], m.virtual_count,
-               [h, nl_v.offsets, nl_v.indices, si.virtual_q, vf.c, vf.inv_den, vf.minv, si.particle_q,
-                m.particle_mass, si.particle_density, self.dp, self.virtual_dp], dev)  # fmt: skip
-        self.update_ghosts(si.virtual_q, self.virtual_dp, homogeneous=True, virtual=True)
-        launch(self.k["correct_velocity"], n,
-               [h, real(dt), nl_r.offsets, nl_r.indices, si.particle_q, rf.c, rf.inv_den, rf.minv, rf.e,
-                si.virtual_q, m.virtual_mass, si.virtual_density, self.virtual_dp, so.particle_density,
-                so.particle_v], dev)  # fmt: skip
+               [h, nl_v.offsets, nl_v.indices, state.virtual_q, vf.c, vf.inv_den, vf.minv, state.particle_q,
+                m.particle_mass, state.particle_density, values, self.virtual_dp], dev)  # fmt: skip
+        self.update_ghosts(state.virtual_q, self.virtual_dp, homogeneous=homogeneous, virtual=True)
+        launch(self.k["gradient_at_real"], m.particle_count,
+               [h, nl_r.offsets, nl_r.indices, state.particle_q, rf.c, rf.inv_den, rf.minv, rf.e, state.virtual_q,
+                m.virtual_mass, state.virtual_density, self.virtual_dp, self.grad], dev)  # fmt: skip
+
+    def darcy_velocity(self, state) -> np.ndarray:
+        """(N,3) Darcy velocity w = −k ∇p [m/s] of ``state``, through the two-set path (host copy).
+
+        Uses the neighbour lists and fit data of the step that produced ``state`` (its geometry
+        differs from theirs by one step's motion)."""
+        m = self.model
+        self.update_ghosts(state.particle_q, state.particle_pore_pressure, homogeneous=False)
+        self._gradient(state, state.particle_pore_pressure, homogeneous=False)
+        w = wp.zeros(m.particle_count, dtype=wp.vec3d, device=m.device)
+        launch(self.k["darcy"], m.particle_count,
+               [self.grad, m.particle_material, m.pore.material_permeability, w], m.device)  # fmt: skip
+        return w.numpy()
 
     def _matrix(self):
         return [self.solver.real_to_real.offsets, self.weight, self.column, self.sign, self.diag]
