@@ -134,6 +134,8 @@ def chain(*edits):
 
 
 BAD_CASES = {
+    "pore water with the collocated scheme": (chain(PORE_WATER, edit('scheme = "two_set"', 'scheme = "collocated"')),
+                                              "simulation.scheme"),
     "unknown section": (append("\n[solver]\ntolerance = 1\n"), "solver"),
     "unknown simulation key": (edit("end_time =", "courrant = 0.5\nend_time ="), "simulation.courrant"),
     "string dx": (edit("dx = 0.1", 'dx = "abc"'), "simulation.dx"),

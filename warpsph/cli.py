@@ -85,14 +85,16 @@ def _run(args) -> int:
               resume=args.resume)  # fmt: skip
     print(f"{scene.name}: {run.model.particle_count} particles, {run.model.virtual_count} virtual points, "
           f"dt = {run.dt:.4g} s, output in {out}")  # fmt: skip
+    interactive = sys.stderr.isatty()
     bar = tqdm(total=run.end_time, initial=run.time, unit="s", disable=args.no_progress,
+               mininterval=0.5 if interactive else 30.0,
                bar_format="{l_bar}{bar}| t = {n:.4g}/{total:.4g} s [{elapsed}<{remaining}{postfix}]")  # fmt: skip
 
     def progress(t: float, step: int) -> None:
-        bar.n = min(t, run.end_time)
-        if step % 10 == 0:
-            bar.set_postfix_str(f"step {step}", refresh=False)
-            bar.refresh()
+        projection = run.solver.projection
+        solve = f", {projection.settings.solver} {projection.iterations[-1]} it" if projection else ""
+        bar.set_postfix_str(f"step {step}{solve}", refresh=False)
+        bar.update(min(t, run.end_time) - bar.n)
 
     try:
         s = run.run(progress=progress)

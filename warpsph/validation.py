@@ -301,6 +301,9 @@ def validate_scene(scene: Scene) -> None:
     as_string("name", scene.name)
     _check_simulation(scene.simulation)
     _check_effects(scene.effects)
+    if scene.effects.pore_water and scene.simulation.scheme != "two_set":
+        raise SceneError("simulation.scheme", 'the pore_water effect runs with the "two_set" scheme only, '
+                         f"got {show(scene.simulation.scheme)}")  # fmt: skip
     _check_materials(scene.materials)
     _check_pressure(scene.pressure)
     bodies = _named_items(scene, "bodies", Body)
