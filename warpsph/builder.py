@@ -15,7 +15,8 @@ from warpsph.fields import voigt_to_tensor
 from warpsph.lattice import fill_body, fill_cells
 from warpsph.model import PLANE_FIXED, PLANE_SLIP, PLANE_TRACTION, PLANE_VELOCITY, Model, State
 from warpsph.pore_water import build_pore_water
-from warpsph.scene import Scene
+from warpsph.errors import SceneError
+from warpsph.scene import AXES, Scene
 from warpsph.sph.spec import Spec
 
 _BOUNDARY_KINDS = {"fixed": PLANE_FIXED, "slip": PLANE_SLIP, "symmetry": PLANE_SLIP, "free": PLANE_TRACTION,
@@ -95,6 +96,17 @@ def _geostatic(material, points: np.ndarray, gravity, pore_water: bool) -> np.nd
     return out
 
 
+def _check_drained_planes(scene: Scene, planes, on_plane: np.ndarray) -> None:
+    """A drained or inflow plane needs particles on it: the pressure is prescribed there."""
+    for p_idx, plane in enumerate(planes):
+        name, drainage = plane[0], plane[8]
+        if drainage.kind != "impermeable" and not np.any(on_plane == p_idx):
+            section = "boundaries" if any(b.name == name for b in scene.boundaries) else "loads"
+            raise SceneError(f"{section}.{name}.position",
+                             f"no particle lies on this {drainage.kind} plane ({AXES[plane[1]]} = {plane[2]:g}); "
+                             "put it on a face of a body, on the lattice of spacing dx")  # fmt: skip
+
+
 def build(scene: Scene, device: str = "cpu", precision: str | None = None) -> tuple[Model, State]:
     """Turn a validated ``scene`` into a Model and its initial State on ``device``."""
     spec = Spec.from_scene(scene, precision)
@@ -145,6 +157,8 @@ def build(scene: Scene, device: str = "cpu", precision: str | None = None) -> tu
                 on_plane[a, counts[a]] = p_idx
                 counts[a] += 1
     constrained = np.nonzero(counts)[0].astype(np.int32)
+    if pore:
+        _check_drained_planes(scene, planes, on_plane)
 
     vel_loads = [ld for ld in scene.loads if ld.kind == "velocity"]
     def in_regions(points):
