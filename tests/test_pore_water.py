@@ -80,3 +80,36 @@ def test_undrained_limit_carries_the_load_in_the_water():
           f"largest neighbour jump {neighbours.max():.2e} σ₀, CG iterations max {max(solver.projection.iterations)}")
     assert np.all(np.abs(ratio - 1.0) < 0.01)
     assert neighbours.max() < 0.01
+
+
+def test_missed_tolerance_warns_or_stops(tmp_path):
+    """One CG iteration cannot reach 1e-12: "warn" warns once and counts the misses in run.json,
+    "stop" ends the run with a SimulationError (the CLI's exit code 1)."""
+    import json
+
+    import pytest
+
+    from warpsph.errors import SimulationError
+    from warpsph.runner import Run
+    from warpsph.scene import PressureSolver
+
+    def scene(on_failure):
+        return Scene(simulation=Simulation(dim=1, dx=0.2), effects=Effects(pore_water=True),
+                     materials={"soil": soil()}, bodies=[Body("column", "soil", min=(0, 0, 0), max=(0, 4, 0),
+                                                              pore_pressure=1000.0)],
+                     boundaries=[Boundary("base", "fixed", "y", 0.0, "min"),
+                                 Boundary("top", "free", "y", 4.0, "max", drainage=Drainage("drained"))],
+                     pressure=PressureSolver(tolerance=1e-12, max_iterations=1, on_failure=on_failure),
+                     ).validate()  # fmt: skip
+
+    warned = scene("warn")
+    warned.output.usd = False
+    with pytest.warns(UserWarning, match="missed its tolerance"):
+        Run(warned, tmp_path / "warn", end_time=5 * warned.time_step).run()
+    record = json.loads((tmp_path / "warn" / "run.json").read_text())
+    assert record["pressure_solve"]["missed_tolerance"] == 5 and record["status"] == "finished"
+    stopped = scene("stop")
+    stopped.output.usd = False
+    with pytest.raises(SimulationError, match="missed its tolerance"):
+        Run(stopped, tmp_path / "stop", end_time=5 * stopped.time_step).run()
+    assert json.loads((tmp_path / "stop" / "run.json").read_text())["status"] == "failed"

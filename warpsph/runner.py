@@ -13,6 +13,7 @@ import json
 import math
 import platform
 import time
+import warnings
 from dataclasses import asdict, dataclass, field
 from pathlib import Path
 
@@ -203,12 +204,16 @@ class Run:
     def _warm_up(self) -> None:
         """Compile every kernel by one throw-away step into the scratch state."""
         start = time.perf_counter()
-        self.solver.step(self.state, self.scratch, self.time, self.dt)
+        with warnings.catch_warnings():  # the throw-away step reports nothing
+            warnings.simplefilter("ignore")
+            self.solver.step(self.state, self.scratch, self.time, self.dt)
         self.guard.first_bad(self.scratch)
         wp.synchronize_device(self.model.device)
         self.scratch.assign(self.state)
         self.summary.compile_seconds = time.perf_counter() - start
         self.solver.stage_seconds.clear()
+        if self.solver.projection is not None:
+            self.solver.projection.reset_statistics()
 
     def _check(self) -> None:
         bad = self.guard.first_bad(self.state)
@@ -231,13 +236,14 @@ class Run:
         n_end = max(self.step_index, math.ceil(self.end_time / self.dt - 1e-9))
         frame_every = max(1, round(out.frame_interval / self.dt))
         ck_every = max(1, round(out.checkpoint_interval / self.dt)) if out.checkpoint_interval > 0 else frame_every
-        self._warm_up()
-        if not self.resumed:
-            self._write_frame()
-            self._checkpoint()
         status, message = "failed", ""
         start = time.perf_counter()
         try:
+            self._warm_up()
+            start = time.perf_counter()
+            if not self.resumed:
+                self._write_frame()
+                self._checkpoint()
             while self.step_index < n_end:
                 self.solver.step(self.state, self.scratch, self.time, self.dt)
                 self.state, self.scratch = self.scratch, self.state

@@ -401,6 +401,12 @@ class PressureProjection:
         self.residuals: list[float] = []
         self.failures = 0
 
+    def reset_statistics(self) -> None:
+        """Forget the solves so far (the runner's warm-up step is not part of the run)."""
+        self.iterations.clear()
+        self.residuals.clear()
+        self.failures = 0
+
     def _face_factor(self) -> np.ndarray:
         """½ per plane a particle lies on: the share of its cell inside the body. Scaling its row by
         it keeps the matrix symmetric once ghosts are folded onto their sources (a particle on a
