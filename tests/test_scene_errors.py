@@ -134,6 +134,8 @@ def chain(*edits):
 
 
 BAD_CASES = {
+    "two records on one face": (append('\n[[boundaries]]\nname = "lid"\nkind = "free"\naxis = "y"\nposition = 2.0\n'
+                                       'side = "max"\n'), "loads.top"),
     "pore water with the collocated scheme": (chain(PORE_WATER, edit('scheme = "two_set"', 'scheme = "collocated"')),
                                               "simulation.scheme"),
     "unknown section": (append("\n[solver]\ntolerance = 1\n"), "solver"),

@@ -2,7 +2,7 @@
 
 Probes are Lagrangian: a "point" probe follows the material particle nearest its point at the
 start, a "region_mean" probe the particles that start inside its region; a "reaction" probe sums
-the traction σ·n over the particles lying on a boundary plane, each standing for an area V/Δx,
+the total traction σ·n (σ = σ′ − p I with pore water) over the particles lying on a boundary plane, each standing for an area V/Δx,
 halved for every other plane it also lies on (an edge particle's area is half outside the body).
 """
 
@@ -34,6 +34,13 @@ def field_values(name: str, fields: dict[str, np.ndarray], x0: np.ndarray) -> np
     if name == "pore_pressure":
         return fields["pore_pressure"]
     raise ValueError(f"unknown probe field {name!r}")
+
+
+def total_stress(fields: dict[str, np.ndarray]) -> np.ndarray:
+    """σ = σ′ − p I [Pa] (N,3,3): the effective stress, less the pore pressure where there is one."""
+    if "pore_pressure" not in fields:
+        return fields["stress"]
+    return fields["stress"] - fields["pore_pressure"][:, None, None] * np.eye(3)
 
 
 class Probes:
@@ -79,7 +86,7 @@ class Probes:
         x0 = self.model.particle_x0
         for p, sel, normal, factor in zip(self.probes, self.selection, self.normal, self.area_factor):
             if p.kind == "reaction":
-                traction = fields["stress"][sel] @ normal
+                traction = total_stress(fields)[sel] @ normal
                 area = factor * self._mass[sel] / fields["density"][sel] / self.model.dx
                 out[p.name] = float(np.sum(traction[:, _COMPONENT[p.field]] * area))
             else:

@@ -77,10 +77,12 @@ class Solver:
     def _ghosts_two_set(self, si: State, so: State, t: float, dt: float) -> None:
         self.boundaries.set_time(t)
         self.boundaries.move_planes(si.particle_q)
-        self.boundaries.update_real_ghosts(si.particle_q, si.particle_v, si.particle_stress, si.particle_density)
+        self.boundaries.update_real_ghosts(si.particle_q, si.particle_v, si.particle_stress, si.particle_density,
+                                           si.particle_pore_pressure)
         if self.projection is not None:
             self.projection.update_ghosts(si.particle_q, si.particle_pore_pressure, homogeneous=False)
-        self.boundaries.update_virtual_ghosts(si.virtual_q, self.virtual_v, self.virtual_stress, si.virtual_density)
+        self.boundaries.update_virtual_ghosts(si.virtual_q, self.virtual_v, self.virtual_stress, si.virtual_density,
+                                              self.virtual_p)
 
     def _neighbours_two_set(self, si: State, so: State, t: float, dt: float) -> None:
         m = self.model
@@ -115,7 +117,8 @@ class Solver:
     def _virtual_ghosts(self, si: State, so: State, t: float, dt: float) -> None:
         self.boundaries.set_time(t + 0.5 * dt)
         self.boundaries.prescribe_virtual(self.virtual_v)
-        self.boundaries.update_virtual_ghosts(si.virtual_q, self.virtual_v, self.virtual_stress, si.virtual_density)
+        self.boundaries.update_virtual_ghosts(si.virtual_q, self.virtual_v, self.virtual_stress, si.virtual_density,
+                                              self.virtual_p)
         if self.projection is not None:
             self.projection.update_ghosts(si.virtual_q, self.virtual_p, homogeneous=False, virtual=True)
 
@@ -140,11 +143,11 @@ class Solver:
     def _project(self, si: State, so: State, t: float, dt: float) -> None:
         """Pressure projection, then the prescribed velocities again (the correction moves them)."""
         self.projection.project(si, so, dt)
-        self.boundaries.prescribe(so.particle_q, so.particle_v, so.particle_stress)
+        self.boundaries.prescribe(so.particle_q, so.particle_v, so.particle_stress, so.particle_pore_pressure)
 
     def _prescribe(self, si: State, so: State, t: float, dt: float) -> None:
         self.boundaries.set_time(t + dt)
-        self.boundaries.prescribe(so.particle_q, so.particle_v, so.particle_stress)
+        self.boundaries.prescribe(so.particle_q, so.particle_v, so.particle_stress, si.particle_pore_pressure)
 
     # -- collocated baseline --------------------------------------------------------------------
     def _init_collocated(self) -> None:

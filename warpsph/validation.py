@@ -319,6 +319,7 @@ def validate_scene(scene: Scene) -> None:
         _check_boundary(boundary, item_key("boundaries", boundary.name, i), scene)
     for i, load in enumerate(loads):
         _check_load(load, item_key("loads", load.name, i), scene)
+    _check_one_record_per_plane(boundaries, loads)
     _check_pore_water_can_escape(scene)
     probes = _named_items(scene, "probes", Probe)
     check_unique("probe", ("probes", probes))
@@ -468,6 +469,20 @@ def _check_body(body: Body, key: str, scene: Scene) -> None:
         check_range(f"{key}.radius", body.radius, POSITIVE)
     if count_lattice_points(body, dx, dim) == 0:
         raise SceneError(key, f"empty body: no lattice point of spacing dx = {show(dx)} lies inside it")
+
+
+def _check_one_record_per_plane(boundaries: list, loads: list) -> None:
+    """Two boundaries or traction loads on the same face would mirror its particles twice."""
+    seen: dict = {}
+    planes = [("boundaries", b) for b in boundaries] + [("loads", ld) for ld in loads if ld.kind == "traction"]
+    for section, item in planes:
+        face = (item.axis, float(item.position), item.side)
+        if face in seen:
+            raise SceneError(f"{section}.{item.name}",
+                             f"lies on the same face ({item.axis} = {item.position:g}, side {item.side}) as "
+                             f"{seen[face]}; a face takes one boundary or traction load (a load with an extent "
+                             "leaves the rest of its face traction-free)")  # fmt: skip
+        seen[face] = f"{section}.{item.name}"
 
 
 def _check_boundary(boundary: Boundary, key: str, scene: Scene) -> None:

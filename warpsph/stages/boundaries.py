@@ -49,6 +49,13 @@ def _kernels(spec: Spec):
             return vector[p] * factor[p]
         return vec3(real(0.0), real(0.0), real(0.0))
 
+    @wp.func
+    def pore_pressure_at(i: int, x: vec3, pore: wp.array(dtype=wp.float64), material: wp.array(dtype=wp.int32),
+                         water_density: wp.array(dtype=wp.float64), gravity: vec3, water_table: real):  # fmt: skip
+        """Total pore pressure p_excess + ρ_w b·(x − x_wt) of point i at x [Pa] (pore water only)."""
+        shifted = vec3(x[0], x[1] - water_table, x[2])
+        return real(pore[i]) + real(water_density[material[i]]) * wp.dot(gravity, shifted)
+
     @wp.kernel(enable_backward=False, module="unique")
     def update_ghosts(
         n_owned: int,
@@ -65,6 +72,9 @@ def _kernels(spec: Spec):
         gravity: vec3,
         material: wp.array(dtype=wp.int32),
         water_density: wp.array(dtype=wp.float64),
+        water_table: real,
+        pore: wp.array(dtype=wp.float64),
+        drainage: wp.array(dtype=wp.int32),
         q: wp.array(dtype=vec3),
         v: wp.array(dtype=vec3),
         stress: wp.array(dtype=mat33),
@@ -100,12 +110,22 @@ def _kernels(spec: Spec):
                             s[m, k] = -s[m, k]
                             s[k, m] = -s[k, m]
                 else:
-                    t = traction_here(p, x, m, plane_vector, plane_lo, plane_hi, factor)
+                    # the load at the source's own point: a ghost of a ghost across a symmetry
+                    # plane sees the mirror image of the load, not the load at its mirrored place
+                    t = traction_here(p, q[src], m, plane_vector, plane_lo, plane_hi, factor)
                     sign = plane_sign[p]
                     for k in range(3):
                         s[m, k] = two * sign * t[k] - s[m, k]
                         if k != m:
                             s[k, m] = s[m, k]
+                    if wp.static(pore_water):
+                        # an impermeable face carries the load with the pore water: σ′n = t̄ + p n; a
+                        # drained face is in contact with water at its own pressure, so σ′n = t̄
+                        p_face = real(0.0)
+                        if drainage[p] != 1:
+                            p_face = pore_pressure_at(src, q[src], pore, material, water_density, gravity,
+                                                      water_table)  # fmt: skip
+                        s[m, m] = s[m, m] + two * p_face
         q[n_owned + g] = x
         v[n_owned + g] = u
         stress[n_owned + g] = s
@@ -122,6 +142,12 @@ def _kernels(spec: Spec):
         plane_lo: wp.array(dtype=vec3),
         plane_hi: wp.array(dtype=vec3),
         factor: wp.array(dtype=real),
+        gravity: vec3,
+        material: wp.array(dtype=wp.int32),
+        water_density: wp.array(dtype=wp.float64),
+        water_table: real,
+        pore: wp.array(dtype=wp.float64),
+        drainage: wp.array(dtype=wp.int32),
         q: wp.array(dtype=vec3),
         v: wp.array(dtype=vec3),
         stress: wp.array(dtype=mat33),
@@ -147,6 +173,10 @@ def _kernels(spec: Spec):
                     for k in range(3):
                         s[m, k] = plane_sign[p] * t[k]
                         s[k, m] = s[m, k]
+                    if wp.static(pore_water):
+                        if drainage[p] != 1:  # as for the ghosts: only an impermeable face shares its load
+                            s[m, m] = s[m, m] + pore_pressure_at(a, q[a], pore, material, water_density, gravity,
+                                                                 water_table)  # fmt: skip
         v[a] = u
         stress[a] = s
 
@@ -239,26 +269,35 @@ class Boundaries:
         return [m.plane_axis, self.plane_position, m.plane_sign, m.plane_kind, m.plane_vector,
                 m.plane_extent_lo, m.plane_extent_hi, self.plane_factor]  # fmt: skip
 
-    def _body_force_args(self, material):
+    def _water_args(self, material, pore):
+        """Body force and pore-water arguments of the ghost and prescription kernels."""
         m = self.model
-        water = m.pore.material_water_density if m.pore is not None else None
-        return [m.spec.vec3(*m.gravity), material, water]
+        if m.pore is None:
+            return [m.spec.vec3(*m.gravity), material, None, m.spec.real(0.0), None]
+        return [m.spec.vec3(*m.gravity), material, m.pore.material_water_density, m.spec.real(m.pore.water_table),
+                pore]  # fmt: skip
 
-    def update_real_ghosts(self, q, v, stress, density) -> None:
-        """Ghost entries of the real set from their sources."""
+    def _drainage_args(self):
+        pw = self.model.pore
+        return [None if pw is None else pw.plane_drainage]
+
+    def update_real_ghosts(self, q, v, stress, density, pore=None) -> None:
+        """Ghost entries of the real set from their sources (``pore``: their excess pore pressure)."""
         m = self.model
         update_ghosts, *_ = _kernels(m.spec)
         launch(update_ghosts, m.particle_ghost_count,
                [m.particle_count, m.particle_ghost_source, m.particle_ghost_planes, *self._plane_args(),
-                *self._body_force_args(m.particle_material), q, v, stress, density], m.device)  # fmt: skip
+                *self._water_args(m.particle_material, pore), *self._drainage_args(), q, v, stress, density],
+               m.device)  # fmt: skip
 
-    def update_virtual_ghosts(self, q, v, stress, density) -> None:
-        """Ghost entries of the virtual set from their sources."""
+    def update_virtual_ghosts(self, q, v, stress, density, pore=None) -> None:
+        """Ghost entries of the virtual set from their sources (``pore``: their excess pore pressure)."""
         m = self.model
         update_ghosts, *_ = _kernels(m.spec)
         launch(update_ghosts, m.virtual_ghost_count,
                [m.virtual_count, m.virtual_ghost_source, m.virtual_ghost_planes, *self._plane_args(),
-                *self._body_force_args(m.virtual_material), q, v, stress, density], m.device)  # fmt: skip
+                *self._water_args(m.virtual_material, pore), *self._drainage_args(), q, v, stress, density],
+               m.device)  # fmt: skip
 
     def prescribe_virtual(self, v_half) -> None:
         """Set the half-step velocity of the virtual points inside velocity regions."""
@@ -267,13 +306,15 @@ class Boundaries:
         launch(in_regions, len(m.region_virtual),
                [m.region_virtual, m.region_virtual_load, m.region_velocity, self.region_factor, v_half], m.device)
 
-    def prescribe(self, q, v, stress) -> None:
-        """Set prescribed velocities and tractions on plane and region particles."""
+    def prescribe(self, q, v, stress, pore=None) -> None:
+        """Set prescribed velocities and tractions on plane and region particles (tractions are total
+        stresses: with pore water, ``pore`` holds the excess pore pressure)."""
         m = self.model
         _, on_planes, in_regions, *_ = _kernels(m.spec)
         plane_args = self._plane_args()
         launch(on_planes, m.constraint_count,
-               [m.constraint_particle, m.constraint_planes, plane_args[0], *plane_args[2:], q, v, stress],
+               [m.constraint_particle, m.constraint_planes, plane_args[0], *plane_args[2:],
+                *self._water_args(m.particle_material, pore), self._drainage_args()[0], q, v, stress],
                m.device)  # fmt: skip
         launch(in_regions, m.region_count,
                [m.region_particle, m.region_load, m.region_velocity, self.region_factor, v], m.device)

@@ -463,13 +463,14 @@ class PressureProjection:
         h = real(m.h)
         rf, vf = sol.real_fits, sol.virtual_fits
         # ∇·v* along real → virtual → real (geometry at tⁿ, v* with kinematic ghost parities)
-        sol.boundaries.update_real_ghosts(si.particle_q, so.particle_v, so.particle_stress, so.particle_density)
+        sol.boundaries.update_real_ghosts(si.particle_q, so.particle_v, so.particle_stress, so.particle_density,
+                                          si.particle_pore_pressure)
         nl_v = sol.virtual_to_real
         launch(self.k["fit_vector_at_virtual"], m.virtual_count,
                [h, nl_v.offsets, nl_v.indices, si.virtual_q, vf.c, vf.inv_den, vf.minv, si.particle_q,
                 m.particle_mass, si.particle_density, so.particle_v, self.virtual_v_star], dev)  # fmt: skip
         sol.boundaries.update_virtual_ghosts(si.virtual_q, self.virtual_v_star, sol.virtual_stress,
-                                             si.virtual_density)  # fmt: skip
+                                             si.virtual_density, sol.virtual_p)  # fmt: skip
         nl_r = sol.real_to_virtual
         launch(self.k["divergence_at_real"], n,
                [h, nl_r.offsets, nl_r.indices, si.particle_q, rf.c, rf.inv_den, rf.minv, rf.e, si.virtual_q,
