@@ -288,11 +288,15 @@ def main(argv: list[str] | None = None) -> int:
     line = target_line(results)
     if line:
         print("\n" + line)
-    record = {"machine": machine, "settings": vars(args), "target": TARGET, "results": results}
-    args.json.parent.mkdir(parents=True, exist_ok=True)
-    args.json.write_text(json.dumps(record, indent=2, default=str))
-    print(f"\nwrote {args.json}")
+    write_record(args.json, {"machine": machine, "settings": vars(args), "target": TARGET, "results": results})
     return 0
+
+
+def write_record(path, record: dict) -> None:
+    """Write a benchmark record as JSON to ``path`` and say so."""
+    path.parent.mkdir(parents=True, exist_ok=True)
+    path.write_text(json.dumps(record, indent=2, default=str))
+    print(f"\nwrote {path}")
 
 
 if __name__ == "__main__":

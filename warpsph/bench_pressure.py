@@ -13,7 +13,6 @@ from __future__ import annotations
 
 import argparse
 import dataclasses
-import json
 import sys
 import warnings
 from pathlib import Path
@@ -21,7 +20,7 @@ from pathlib import Path
 import numpy as np
 import warp as wp
 
-from warpsph.bench import DX, SOIL, block_shape, machine_record, markdown_table, memory_bytes, timed
+from warpsph.bench import DX, SOIL, block_shape, machine_record, markdown_table, memory_bytes, timed, write_record
 from warpsph.builder import build
 from warpsph.model import Model, State
 from warpsph.scene import (Body, Boundary, Drainage, Effects, Load, PressureSolver, Scene, Simulation,
@@ -210,10 +209,7 @@ def main(argv: list[str] | None = None) -> int:
     for r in missed:
         print(f"{r['solver']} at {r['particles']} particles missed the tolerance in {r['missed_tolerance']} of "
               f"{r['steps']} solves (max residual {r['residual_max']:.2e})")  # fmt: skip
-    record = {"machine": machine, "settings": vars(args), "load_pa": LOAD, "results": results}
-    args.json.parent.mkdir(parents=True, exist_ok=True)
-    args.json.write_text(json.dumps(record, indent=2, default=str))
-    print(f"\nwrote {args.json}")
+    write_record(args.json, {"machine": machine, "settings": vars(args), "load_pa": LOAD, "results": results})
     return 0
 
 
