@@ -154,13 +154,7 @@ def bench_size(n: int, scheme: str, args) -> dict:
         "virtual_points": model.virtual_count,
         "ghost_particles": model.particle_ghost_count,
         "virtual_ghosts": model.virtual_ghost_count,
-        "time_step": dt,
-        "steps": args.steps,
-        "build_seconds": build_s,
-        "compile_seconds": compile_s,
-        "wall_seconds": wall,
-        "seconds_per_step": wall / args.steps,
-        "particle_steps_per_second": particles * args.steps / wall,
+        **timing_fields(particles, args.steps, dt, build_s, compile_s, wall),
         "neighbour_pairs_per_step": pairs,
         "neighbour_interactions_per_second": pairs * args.steps / wall,
         "stage_seconds_per_step": stage,
@@ -290,6 +284,19 @@ def main(argv: list[str] | None = None) -> int:
         print("\n" + line)
     write_record(args.json, {"machine": machine, "settings": vars(args), "target": TARGET, "results": results})
     return 0
+
+
+def timing_fields(particles: int, steps: int, dt: float, build_s: float, compile_s: float, wall: float) -> dict:
+    """The timing entries every benchmark row carries (times in s)."""
+    return {
+        "time_step": dt,
+        "steps": steps,
+        "build_seconds": build_s,
+        "compile_seconds": compile_s,
+        "wall_seconds": wall,
+        "seconds_per_step": wall / steps,
+        "particle_steps_per_second": particles * steps / wall,
+    }
 
 
 def write_record(path, record: dict) -> None:

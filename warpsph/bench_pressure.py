@@ -20,7 +20,8 @@ from pathlib import Path
 import numpy as np
 import warp as wp
 
-from warpsph.bench import DX, SOIL, block_shape, machine_record, markdown_table, memory_bytes, timed, write_record
+from warpsph.bench import (DX, SOIL, block_shape, machine_record, markdown_table, memory_bytes, timed,
+                           timing_fields, write_record)  # fmt: skip
 from warpsph.builder import build
 from warpsph.model import Model, State
 from warpsph.scene import (Body, Boundary, Drainage, Effects, Load, PressureSolver, Scene, Simulation,
@@ -118,13 +119,7 @@ def bench_case(n: int, solver_name: str, args) -> dict:
         "hydraulic_conductivity": args.hydraulic_conductivity,
         "water_bulk_modulus": args.water_bulk_modulus,
         "consolidation_coefficient": consolidation_coefficient(scene),
-        "time_step": dt,
-        "steps": args.steps,
-        "build_seconds": build_s,
-        "compile_seconds": compile_s,
-        "wall_seconds": wall,
-        "seconds_per_step": wall / args.steps,
-        "particle_steps_per_second": particles * args.steps / wall,
+        **timing_fields(particles, args.steps, dt, build_s, compile_s, wall),
         **solves,
         "solve_seconds_per_step": stage[STAGE],
         "solve_share": stage[STAGE] / total_stage,
