@@ -73,3 +73,50 @@ def test_drained_plane_without_particles_is_refused():
     scene.boundaries[1].position = HEIGHT + 0.05
     with pytest.raises(SceneError, match="boundaries.top.position"):
         build(scene)
+
+
+def test_drainage_on_part_of_a_face():
+    """Steady seepage from an inflow base to a top drained only on x > 0.55 m of a 1 m wide box: the
+    drained top particles hold p = 0, the sealed ones keep a pressure, no water leaves through the
+    sealed part (w_y below 2 % of the inflow more than the support 2h from the drained part; the
+    fitted Darcy velocity is smoothed over 2h), it leaves through the drained part at about twice
+    the inflow, and the flux across the box at mid-height equals the inflow."""
+    from warpsph.scene import Load, Region
+
+    inflow, width = 1e-6, 1.0
+    scene = Scene(simulation=Simulation(dim=2, dx=0.1), effects=Effects(pore_water=True), materials={"soil": SOIL},
+                  bodies=[Body("box", "soil", min=(0, 0, 0), max=(width, HEIGHT / 2, 0))],
+                  boundaries=[Boundary("base", "fixed", "y", 0.0, "min", drainage=Drainage("inflow", inflow=inflow)),
+                              Boundary("left", "slip", "x", 0.0, "min"),
+                              Boundary("right", "slip", "x", width, "max")],
+                  loads=[Load("top", "traction", "y", HEIGHT / 2, "max",
+                              drainage=Drainage("drained", extent=Region(min=(0.55, 0, 0), max=(2.0, 2.0, 0))))],
+                  ).validate()  # fmt: skip
+    model, state, solver = steady(scene, consolidation_times=2.0)
+    x = model.particle_x0
+    p = state.particle_pore_pressure.numpy()[: model.particle_count]
+    w = solver.projection.darcy_velocity(state)
+    top = np.isclose(x[:, 1], HEIGHT / 2)
+    drained, sealed = top & (x[:, 0] > 0.55), top & (x[:, 0] < 0.55 - 2 * model.h)
+    mid = np.isclose(x[:, 1], HEIGHT / 4)
+    flux = np.sum(w[mid, 1] * np.where(np.isclose(x[mid, 0] % width, 0.0), 0.5, 1.0)) * 0.1 / width
+    print(f"\npartly drained top: p on drained part {np.abs(p[drained]).max():.2g} Pa, on sealed part "
+          f"{p[sealed].min():.3g}..{p[sealed].max():.3g} Pa; w_y sealed/q {np.abs(w[sealed, 1]).max() / inflow:.3f}, "
+          f"drained/q {w[drained, 1].mean() / inflow:.2f}; mean flux at mid-height / q {flux / inflow:.4f}")
+    assert np.all(np.abs(p[drained]) < 1e-6 * p.max())
+    assert np.all(p[sealed] > 0.25 * p.max())
+    assert np.abs(w[sealed, 1]).max() < 0.02 * inflow
+    assert w[drained, 1].mean() > 1.5 * inflow
+    assert flux == pytest.approx(inflow, rel=0.02)
+
+
+def test_drained_extent_without_particles_is_refused():
+    from warpsph.scene import Region
+
+    off_the_face = Drainage("drained", extent=Region(min=(5.0, 0, 0), max=(6.0, 9.0, 0)))
+    scene = Scene(simulation=Simulation(dim=2, dx=0.1), effects=Effects(pore_water=True), materials={"soil": SOIL},
+                  bodies=[Body("box", "soil", min=(0, 0, 0), max=(1.0, 1.0, 0))],
+                  boundaries=[Boundary("base", "fixed", "y", 0.0, "min"),
+                              Boundary("top", "free", "y", 1.0, "max", drainage=off_the_face)]).validate()  # fmt: skip
+    with pytest.raises(SceneError, match="inside its drainage.extent"):
+        build(scene)

@@ -177,6 +177,9 @@ BAD_CASES = {
                              "boundaries.base.drainage.presure"),
     "infinite drained pressure": (chain(PORE_WATER, base_drainage('{ kind = "drained", pore_pressure = inf }')),
                                   "boundaries.base.drainage.pore_pressure"),
+    "drainage extent inside out": (chain(PORE_WATER, base_drainage('{ kind = "drained", extent = { min = [1, 0], '
+                                                                   'max = [0, 0] } }')),
+                                   "boundaries.base.drainage.extent.max"),
     "drainage without pore water": (base_drainage('{ kind = "drained" }'), "boundaries.base.drainage.kind"),
     "load drainage without pore water": (
         edit("traction = [0, -1e4]", 'traction = [0, -1e4]\ndrainage = { kind = "inflow" }'),

@@ -1,5 +1,6 @@
 """scenes/strip_footing.toml: it validates, a short run writes pore pressure to the results and the USD
-cache, and the ramped footing load raises the pore pressure under the footing above hydrostatic."""
+cache, the ramped footing load raises the pore pressure under the footing above hydrostatic, and the
+sealed footing holds its pore pressure while the ground beside it is drained."""
 
 from pathlib import Path
 
@@ -35,8 +36,9 @@ def short_run(scene, tmp_path_factory):
 def test_scene_validates(scene):
     assert scene.effects.pore_water and scene.simulation.dim == 2
     (footing,) = scene.loads
-    assert footing.extent.min[0] < 0.0 and footing.extent.max[0] == 1.0
+    assert footing.extent.min[0] < 0.0 and 1.0 < footing.extent.max[0] < 1.25  # edge between particle rows
     assert footing.drainage.kind == "drained" and footing.time_function.kind == "ramp"
+    assert footing.drainage.extent.min[0] == footing.extent.max[0]  # impermeable under the footing only
     kinds = {b.name: (b.kind, b.drainage.kind) for b in scene.boundaries}
     assert kinds == {"base": ("slip", "impermeable"), "centre": ("symmetry", "impermeable"),
                      "far_side": ("slip", "impermeable")}  # fmt: skip
@@ -78,3 +80,15 @@ def test_load_raises_the_pore_pressure_under_the_footing(scene, short_run):
     assert np.all(excess > 0.0)
     _, settlement = results.series("settlement")
     assert settlement[-1] < 0.0
+
+
+def test_footing_is_sealed_and_the_ground_beside_it_drained(short_run):
+    """Surface particles under the footing (x <= 1 m) carry an excess pore pressure; beside it the
+    drained surface holds the hydrostatic pressure, zero at the water table (to within ρ_w g times
+    the surface's settlement: the total pressure is reported at the current position)."""
+    results = load_results(short_run / "results.h5")
+    frame, x0 = results.frame(len(results) - 1), results.frame(0)["position"]
+    surface = np.isclose(x0[:, 1], 5.0)
+    under, beside = surface & (x0[:, 0] <= 1.0), surface & (x0[:, 0] >= 1.25)
+    assert np.all(frame["pore_pressure"][under] > 2.0e3)
+    assert np.all(np.abs(frame["pore_pressure"][beside]) < WATER_WEIGHT * 1e-3)  # 1 mm of water

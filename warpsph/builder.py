@@ -96,15 +96,17 @@ def _geostatic(material, points: np.ndarray, gravity, pore_water: bool) -> np.nd
     return out
 
 
-def _check_drained_planes(scene: Scene, planes, on_plane: np.ndarray) -> None:
-    """A drained or inflow plane needs particles on it: the pressure is prescribed there."""
+def _check_drained_planes(scene: Scene, planes, on_plane: np.ndarray, points: np.ndarray) -> None:
+    """A drained or inflow plane needs particles on it, in its extent: the pressure is prescribed there."""
     for p_idx, plane in enumerate(planes):
         name, drainage = plane[0], plane[8]
-        if drainage.kind != "impermeable" and not np.any(on_plane == p_idx):
+        on = np.any(on_plane == p_idx, axis=1)
+        if drainage.kind != "impermeable" and not np.any(drainage.covers(points[on], plane[1])):
             section = "boundaries" if any(b.name == name for b in scene.boundaries) else "loads"
             raise SceneError(f"{section}.{name}.position",
-                             f"no particle lies on this {drainage.kind} plane ({AXES[plane[1]]} = {plane[2]:g}); "
-                             "put it on a face of a body, on the lattice of spacing dx")  # fmt: skip
+                             f"no particle lies on this {drainage.kind} plane ({AXES[plane[1]]} = {plane[2]:g})"
+                             f"{' inside its drainage.extent' if drainage.extent else ''}; put it on a face of a "
+                             "body, on the lattice of spacing dx")  # fmt: skip
 
 
 def build(scene: Scene, device: str = "cpu", precision: str | None = None) -> tuple[Model, State]:
@@ -158,7 +160,7 @@ def build(scene: Scene, device: str = "cpu", precision: str | None = None) -> tu
                 counts[a] += 1
     constrained = np.nonzero(counts)[0].astype(np.int32)
     if pore:
-        _check_drained_planes(scene, planes, on_plane)
+        _check_drained_planes(scene, planes, on_plane, real_pts)
 
     vel_loads = [ld for ld in scene.loads if ld.kind == "velocity"]
     def in_regions(points):
@@ -237,7 +239,8 @@ def build(scene: Scene, device: str = "cpu", precision: str | None = None) -> tu
         region_velocity=arr(np.array([ld.velocity for ld in vel_loads], npr), vec3, (0, 3)),
         region_functions=[ld.time_function for ld in vel_loads],
         particle_ids=np.arange(n, dtype=np.int64),
-        pore=build_pore_water(scene, [p[8] for p in planes], float(real_pts[:, 1].max()), device) if pore else None,
+        pore=(build_pore_water(scene, [p[8] for p in planes], float(real_pts[:, 1].max()), vec3, device)
+              if pore else None),
     )
 
     state = model.state()

@@ -14,7 +14,7 @@ from dataclasses import dataclass
 import numpy as np
 import warp as wp
 
-from warpsph.scene import STANDARD_GRAVITY, Scene
+from warpsph.scene import STANDARD_GRAVITY, Region, Scene
 
 DRAINAGE = {"impermeable": 0, "drained": 1, "inflow": 2}
 
@@ -41,6 +41,12 @@ class PoreWaterModel:
     """(P,) prescribed head [m] of a drained plane, NaN when a pressure is given instead."""
     plane_inflow: wp.array
     """(P,) Darcy velocity into the body through an inflow plane [m/s]."""
+    plane_drained_lo: wp.array
+    """(P,) vec3 lower corner of the part of each plane that drains [m] (impermeable outside)."""
+    plane_drained_hi: wp.array
+    """(P,) vec3 upper corner of that part [m]."""
+    planes: list
+    """(P,) the planes' :class:`~warpsph.scene.Drainage` records (host)."""
 
     def hydrostatic(self, positions: np.ndarray, water_density: np.ndarray) -> np.ndarray:
         """p_h = ρ_w b·(x − x_wt) [Pa] at (N,3) positions (host)."""
@@ -49,10 +55,13 @@ class PoreWaterModel:
         return water_density * (shifted @ b)
 
 
-def build_pore_water(scene: Scene, planes_drainage: list, top: float, device) -> PoreWaterModel:
+def build_pore_water(scene: Scene, planes_drainage: list, top: float, vec3, device) -> PoreWaterModel:
     """Arrays of the pore_water effect for ``scene``; ``planes_drainage`` is one Drainage per plane
-    (in the model's plane order), ``top`` the highest particle level [m] (default water table)."""
+    (in the model's plane order), ``top`` the highest particle level [m] (default water table),
+    ``vec3`` the Warp vector type of positions."""
     mats = list(scene.materials.values())
+    big = float(np.finfo(np.float32).max)
+    extents = [d.extent or Region() for d in planes_drainage] or [Region()]
 
     def arr(values, dtype=wp.float64):
         return wp.array(np.asarray(values), dtype=dtype, device=device)
@@ -68,4 +77,7 @@ def build_pore_water(scene: Scene, planes_drainage: list, top: float, device) ->
         plane_pressure=arr([d.pore_pressure for d in planes_drainage] or [0.0]),
         plane_head=arr([nan if d.head is None else d.head for d in planes_drainage] or [nan]),
         plane_inflow=arr([d.inflow for d in planes_drainage] or [0.0]),
+        plane_drained_lo=arr(np.clip([e.min for e in extents], -big, big), vec3),
+        plane_drained_hi=arr(np.clip([e.max for e in extents], -big, big), vec3),
+        planes=list(planes_drainage),
     )

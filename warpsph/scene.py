@@ -61,6 +61,12 @@ class Region:
         hi = np.asarray(self.max, dtype=float) + tol
         return np.all((points >= lo) & (points <= hi), axis=1)
 
+    def contains_on_face(self, points: np.ndarray, axis: int) -> np.ndarray:
+        """Boolean mask of the (N,3) ``points`` inside the box, coordinate ``axis`` aside (a face's extent)."""
+        others = [k for k in range(3) if k != axis]
+        lo, hi = np.asarray(self.min, dtype=float)[others], np.asarray(self.max, dtype=float)[others]
+        return np.all((points[:, others] >= lo) & (points[:, others] <= hi), axis=1)
+
 
 @dataclass
 class Simulation:
@@ -209,13 +215,22 @@ class Drainage:
 
     kind: "impermeable" (w·n = 0), "drained" (pore pressure ``pore_pressure`` [Pa] or, when
     ``head`` [m] is given, ρ_w g (head − y)) or "inflow" (water enters at ``inflow`` [m/s], the
-    Darcy velocity into the body).
+    Darcy velocity into the body). Where ``extent`` is given, the face drains (or takes its inflow)
+    only inside that box, measured along the face, and is impermeable elsewhere: an impermeable
+    footing on a drained ground surface.
     """
 
     kind: str = "impermeable"
     pore_pressure: float = 0.0
     head: float | None = None
     inflow: float = 0.0
+    extent: Region | None = None
+
+    def covers(self, points: np.ndarray, axis: int) -> np.ndarray:
+        """Mask of the (N,3) ``points`` of a face normal to ``axis`` where this condition holds."""
+        if self.extent is None:
+            return np.ones(len(points), dtype=bool)
+        return self.extent.contains_on_face(points, axis)
 
 
 class _OnPlane:

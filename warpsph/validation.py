@@ -516,6 +516,8 @@ def _check_drainage(drainage: Drainage, key: str, effects: Effects) -> None:
     check_choice(f"{key}.kind", drainage.kind, ("impermeable", "drained", "inflow"))
     if drainage.kind != "impermeable":
         _needs_pore_water(f"{key}.kind", effects, "")
+    if drainage.extent is not None:
+        _check_region(drainage.extent, f"{key}.extent")
 
 
 def _check_pore_water_can_escape(scene: Scene) -> None:

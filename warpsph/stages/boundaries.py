@@ -32,22 +32,44 @@ from warpsph.sph.spec import Spec
 
 
 @functools.cache
-def _kernels(spec: Spec):
-    real, vec3, mat33 = spec.real, spec.vec3, spec.mat33
-    two = real(2.0)
-    pore_water = spec.effects.pore_water
+def plane_functions(spec: Spec):
+    """``(traction_here, drainage_here)``: a plane's load and drainage at a point of the plane."""
+    real, vec3 = spec.real, spec.vec3
+
+    @wp.func
+    def inside_extent(p: int, x: vec3, axis: int, lo: wp.array(dtype=vec3), hi: wp.array(dtype=vec3)):
+        """Whether x lies in plane p's extent [lo, hi], measured along the plane (its own axis aside)."""
+        inside = True
+        for k in range(3):
+            if k != axis and (x[k] < lo[p][k] or x[k] > hi[p][k]):
+                inside = False
+        return inside
 
     @wp.func
     def traction_here(p: int, x: vec3, axis: int, vector: wp.array(dtype=vec3), lo: wp.array(dtype=vec3),
                       hi: wp.array(dtype=vec3), factor: wp.array(dtype=real)):  # fmt: skip
         """Traction t̄ f(t) at the plane point nearest x, zero outside the plane's extent."""
-        inside = True
-        for k in range(3):
-            if k != axis and (x[k] < lo[p][k] or x[k] > hi[p][k]):
-                inside = False
-        if inside:
+        if inside_extent(p, x, axis, lo, hi):
             return vector[p] * factor[p]
         return vec3(real(0.0), real(0.0), real(0.0))
+
+    @wp.func
+    def drainage_here(p: int, x: vec3, axis: int, drainage: wp.array(dtype=wp.int32), lo: wp.array(dtype=vec3),
+                      hi: wp.array(dtype=vec3)):  # fmt: skip
+        """Drainage kind of plane p at the plane point nearest x (0, impermeable, outside its extent)."""
+        if inside_extent(p, x, axis, lo, hi):
+            return drainage[p]
+        return 0
+
+    return traction_here, drainage_here
+
+
+@functools.cache
+def _kernels(spec: Spec):
+    real, vec3, mat33 = spec.real, spec.vec3, spec.mat33
+    two = real(2.0)
+    pore_water = spec.effects.pore_water
+    traction_here, drainage_here = plane_functions(spec)
 
     @wp.func
     def pore_pressure_at(i: int, x: vec3, pore: wp.array(dtype=wp.float64), material: wp.array(dtype=wp.int32),
@@ -75,6 +97,8 @@ def _kernels(spec: Spec):
         water_table: real,
         pore: wp.array(dtype=wp.float64),
         drainage: wp.array(dtype=wp.int32),
+        drained_lo: wp.array(dtype=vec3),
+        drained_hi: wp.array(dtype=vec3),
         q: wp.array(dtype=vec3),
         v: wp.array(dtype=vec3),
         stress: wp.array(dtype=mat33),
@@ -122,7 +146,7 @@ def _kernels(spec: Spec):
                         # an impermeable face carries the load with the pore water: σ′n = t̄ + p n; a
                         # drained face is in contact with water at its own pressure, so σ′n = t̄
                         p_face = real(0.0)
-                        if drainage[p] != 1:
+                        if drainage_here(p, q[src], m, drainage, drained_lo, drained_hi) != 1:
                             p_face = pore_pressure_at(src, q[src], pore, material, water_density, gravity,
                                                       water_table)  # fmt: skip
                         s[m, m] = s[m, m] + two * p_face
@@ -148,6 +172,8 @@ def _kernels(spec: Spec):
         water_table: real,
         pore: wp.array(dtype=wp.float64),
         drainage: wp.array(dtype=wp.int32),
+        drained_lo: wp.array(dtype=vec3),
+        drained_hi: wp.array(dtype=vec3),
         q: wp.array(dtype=vec3),
         v: wp.array(dtype=vec3),
         stress: wp.array(dtype=mat33),
@@ -174,7 +200,8 @@ def _kernels(spec: Spec):
                         s[m, k] = plane_sign[p] * t[k]
                         s[k, m] = s[m, k]
                     if wp.static(pore_water):
-                        if drainage[p] != 1:  # as for the ghosts: only an impermeable face shares its load
+                        # as for the ghosts: only an impermeable face shares its load
+                        if drainage_here(p, q[a], m, drainage, drained_lo, drained_hi) != 1:
                             s[m, m] = s[m, m] + pore_pressure_at(a, q[a], pore, material, water_density, gravity,
                                                                  water_table)  # fmt: skip
         v[a] = u
@@ -279,7 +306,7 @@ class Boundaries:
 
     def _drainage_args(self):
         pw = self.model.pore
-        return [None if pw is None else pw.plane_drainage]
+        return [None] * 3 if pw is None else [pw.plane_drainage, pw.plane_drained_lo, pw.plane_drained_hi]
 
     def update_real_ghosts(self, q, v, stress, density, pore=None) -> None:
         """Ghost entries of the real set from their sources (``pore``: their excess pore pressure)."""
@@ -314,7 +341,7 @@ class Boundaries:
         plane_args = self._plane_args()
         launch(on_planes, m.constraint_count,
                [m.constraint_particle, m.constraint_planes, plane_args[0], *plane_args[2:],
-                *self._water_args(m.particle_material, pore), self._drainage_args()[0], q, v, stress],
+                *self._water_args(m.particle_material, pore), *self._drainage_args(), q, v, stress],
                m.device)  # fmt: skip
         launch(in_regions, m.region_count,
                [m.region_particle, m.region_load, m.region_velocity, self.region_factor, v], m.device)

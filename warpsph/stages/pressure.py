@@ -29,6 +29,7 @@ from warpsph.model import Model
 from warpsph.sph.kernels import kernel_derivative
 from warpsph.sph.operators import operator_functions
 from warpsph.sph.spec import Spec
+from warpsph.stages.boundaries import plane_functions
 
 DRAINED_SURFACE_EIGENVALUE = 0.6
 """Real particles whose correction eigenvalue is below this are on a free surface (≈0.5 on a flat
@@ -58,6 +59,7 @@ def _kernels(spec: Spec):
     from warpsph.sph.kernels import smoothing_functions
 
     _W, grad_W = smoothing_functions(spec)
+    _traction, drainage_here = plane_functions(spec)
     zero = f64(0.0)
 
     @wp.func
@@ -74,12 +76,14 @@ def _kernels(spec: Spec):
 
     @wp.func
     def ghost_affine(g: int, source: wp.array(dtype=wp.int32), chain: wp.array(dtype=wp.vec3i),
-                     q: wp.array(dtype=vec3), plane_axis: wp.array(dtype=wp.int32),
+                     q: wp.array(dtype=vec3), where: vec3, plane_axis: wp.array(dtype=wp.int32),
                      plane_position: wp.array(dtype=real), plane_sign: wp.array(dtype=real),
-                     drainage: wp.array(dtype=wp.int32), drained_pressure: wp.array(dtype=f64),
+                     drainage: wp.array(dtype=wp.int32), drained_lo: wp.array(dtype=vec3),
+                     drained_hi: wp.array(dtype=vec3), drained_pressure: wp.array(dtype=f64),
                      head: wp.array(dtype=f64), inflow: wp.array(dtype=f64), water_density: f64, k: f64,
                      gravity: vec3, water_table: f64, homogeneous: int):  # fmt: skip
-        """(s, c) with p_ghost = s p_source + c for ghost g (c = 0 when ``homogeneous``)."""
+        """(s, c) with p_ghost = s p_source + c for ghost g (c = 0 when ``homogeneous``); each plane
+        drains (odd parity) where the point ``where`` lies in its drained extent."""
         x = q[source[g]]
         s = f64(1.0)
         c = zero
@@ -88,7 +92,7 @@ def _kernels(spec: Spec):
             p = planes[i]
             if p >= 0:
                 m = plane_axis[p]
-                kind = drainage[p]
+                kind = drainage_here(p, where, m, drainage, drained_lo, drained_hi)
                 if kind == 1:
                     s = -s
                     c = -c
@@ -108,16 +112,16 @@ def _kernels(spec: Spec):
         n_owned: int, source: wp.array(dtype=wp.int32), chain: wp.array(dtype=wp.vec3i), q: wp.array(dtype=vec3),
         material: wp.array(dtype=wp.int32), plane_axis: wp.array(dtype=wp.int32),
         plane_position: wp.array(dtype=real), plane_sign: wp.array(dtype=real), drainage: wp.array(dtype=wp.int32),
-        drained_pressure: wp.array(dtype=f64), head: wp.array(dtype=f64), inflow: wp.array(dtype=f64),
-        water_density: wp.array(dtype=f64), permeability: wp.array(dtype=f64), gravity: vec3, water_table: f64,
-        homogeneous: int, p: wp.array(dtype=f64),
+        drained_lo: wp.array(dtype=vec3), drained_hi: wp.array(dtype=vec3), drained_pressure: wp.array(dtype=f64),
+        head: wp.array(dtype=f64), inflow: wp.array(dtype=f64), water_density: wp.array(dtype=f64),
+        permeability: wp.array(dtype=f64), gravity: vec3, water_table: f64, homogeneous: int, p: wp.array(dtype=f64),
     ):  # fmt: skip
         g = wp.tid()
         src = source[g]
         mat = material[src]
-        s, c = ghost_affine(g, source, chain, q, plane_axis, plane_position, plane_sign, drainage, drained_pressure,
-                            head, inflow, water_density[mat], permeability[mat], gravity, water_table,
-                            homogeneous)  # fmt: skip
+        s, c = ghost_affine(g, source, chain, q, q[src], plane_axis, plane_position, plane_sign, drainage, drained_lo,
+                            drained_hi, drained_pressure, head, inflow, water_density[mat], permeability[mat], gravity,
+                            water_table, homogeneous)  # fmt: skip
         p[n_owned + g] = s * p[src] + c
 
     @wp.kernel(enable_backward=False, module="unique")
@@ -235,8 +239,8 @@ def _kernels(spec: Spec):
         div_v_star: wp.array(dtype=f64), p_old: wp.array(dtype=f64), ghost_source: wp.array(dtype=wp.int32),
         ghost_chain: wp.array(dtype=wp.vec3i), plane_axis: wp.array(dtype=wp.int32),
         plane_position: wp.array(dtype=real), plane_sign: wp.array(dtype=real), drainage: wp.array(dtype=wp.int32),
-        drained_pressure: wp.array(dtype=f64), head: wp.array(dtype=f64), inflow: wp.array(dtype=f64),
-        water_table: f64, dirichlet: wp.array(dtype=wp.int32), value: wp.array(dtype=f64),
+        drained_lo: wp.array(dtype=vec3), drained_hi: wp.array(dtype=vec3), drained_pressure: wp.array(dtype=f64),
+        head: wp.array(dtype=f64), inflow: wp.array(dtype=f64), water_table: f64, dirichlet: wp.array(dtype=wp.int32), value: wp.array(dtype=f64),
         face_factor: wp.array(dtype=f64), weight: wp.array(dtype=f64), column: wp.array(dtype=wp.int32), sign: wp.array(dtype=f64),
         diag: wp.array(dtype=f64), rhs: wp.array(dtype=f64),
     ):  # fmt: skip
@@ -264,7 +268,6 @@ def _kernels(spec: Spec):
             mat_j = material[j]
             w = vol_a * vol_j * (k_a + permeability[mat_j] + dt_rho_a + f64(dt) / f64(density[j])) * morris
             w_dt = vol_a * vol_j * (dt_rho_a + f64(dt) / f64(density[j])) * morris
-            b += w_dt * (p_old[a] - p_old[j])  # −V ∇·((Δt/ρ)∇pⁿ), ghosts carry their parity values
             d += w
             col = j
             s = f64(1.0)
@@ -272,9 +275,13 @@ def _kernels(spec: Spec):
             if j >= n:
                 g = j - n
                 col = ghost_source[g]
-                s, cst = ghost_affine(g, ghost_source, ghost_chain, q, plane_axis, plane_position, plane_sign,
-                                      drainage, drained_pressure, head, inflow, water_density[mat_j],
-                                      permeability[mat_j], gravity, water_table, 0)  # fmt: skip
+                # a pair meeting across a plane drains by its midpoint, as its mirror pair does: the
+                # matrix stays symmetric where a drained extent ends
+                s, cst = ghost_affine(g, ghost_source, ghost_chain, q, real(0.5) * (x + q[col]), plane_axis,
+                                      plane_position, plane_sign, drainage, drained_lo, drained_hi, drained_pressure,
+                                      head, inflow, water_density[mat_j], permeability[mat_j], gravity, water_table,
+                                      0)  # fmt: skip
+            b += w_dt * (p_old[a] - (s * p_old[col] + cst))  # −V ∇·((Δt/ρ)∇pⁿ)
             b += w * cst
             if dirichlet[col] == 1:
                 b += w * s * value[col]
@@ -428,17 +435,18 @@ class PressureProjection:
         rho_w = pw.material_water_density.numpy()[m.particle_material.numpy()[:n]]
         hydro = pw.hydrostatic(x, rho_w)
         g = float(np.linalg.norm(pw.gravity))
+        axes = m.plane_axis.numpy()
         for a, planes in zip(m.constraint_particle.numpy(), m.constraint_planes.numpy().reshape(-1, 3)):
             for p in planes[planes >= 0]:
-                if drainage[p] == 1:
+                if drainage[p] == 1 and pw.planes[p].covers(x[a : a + 1], axes[p])[0]:
                     total = pressure[p] if np.isnan(head[p]) else rho_w[a] * g * (head[p] - x[a, 1])
                     on[a], val[a] = 1, total - hydro[a]
         return on, val
 
     def _plane_args(self):
         m, pw, b = self.model, self.model.pore, self.solver.boundaries
-        return [m.plane_axis, b.plane_position, m.plane_sign, pw.plane_drainage, pw.plane_pressure, pw.plane_head,
-                pw.plane_inflow]  # fmt: skip
+        return [m.plane_axis, b.plane_position, m.plane_sign, pw.plane_drainage, pw.plane_drained_lo,
+                pw.plane_drained_hi, pw.plane_pressure, pw.plane_head, pw.plane_inflow]  # fmt: skip
 
     def update_ghosts(self, q, p, homogeneous: bool, virtual: bool = False) -> None:
         """Pressure-parity values of the ghosts of the real (or virtual) set in ``p``."""
