@@ -36,7 +36,7 @@ def short_run(scene, tmp_path_factory):
 def test_scene_validates(scene):
     assert scene.effects.pore_water and scene.simulation.dim == 2
     (footing,) = scene.loads
-    assert footing.extent.min[0] < 0.0 and 1.0 < footing.extent.max[0] < 1.25  # edge between particle rows
+    assert footing.extent.min[0] < 0.0 and footing.extent.max[0] == 1.125  # edge on the virtual column
     assert footing.drainage.kind == "drained" and footing.time_function.kind == "ramp"
     assert footing.drainage.extent.min[0] == footing.extent.max[0]  # impermeable under the footing only
     kinds = {b.name: (b.kind, b.drainage.kind) for b in scene.boundaries}

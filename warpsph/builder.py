@@ -25,6 +25,8 @@ GHOST_MARGIN = 0.25
 """Ghost band beyond the support radius 2h, as a fraction of 2h (room for small motions)."""
 ON_PLANE = 1.0e-6
 """A particle within this fraction of Δx of a plane lies on it."""
+EXTENT_TOLERANCE = 1.0e-6
+"""Load and drainage extents are grown by this fraction of Δx: a point on an edge is inside."""
 
 
 def _planes(scene: Scene):
@@ -101,7 +103,8 @@ def _check_drained_planes(scene: Scene, planes, on_plane: np.ndarray, points: np
     for p_idx, plane in enumerate(planes):
         name, drainage = plane[0], plane[8]
         on = np.any(on_plane == p_idx, axis=1)
-        if drainage.kind != "impermeable" and not np.any(drainage.covers(points[on], plane[1])):
+        tol = EXTENT_TOLERANCE * scene.simulation.dx
+        if drainage.kind != "impermeable" and not np.any(drainage.covers(points[on], plane[1], tol)):
             section = "boundaries" if any(b.name == name for b in scene.boundaries) else "loads"
             raise SceneError(f"{section}.{name}.position",
                              f"no particle lies on this {drainage.kind} plane ({AXES[plane[1]]} = {plane[2]:g})"
@@ -191,8 +194,9 @@ def build(scene: Scene, device: str = "cpu", precision: str | None = None) -> tu
 
     real_mass = density0 * cell_volume
     virt_mass = virt_density * cell_volume
-    lo = [np.asarray(p[6].min if p[6] is not None else (-np.inf,) * 3, dtype=float) for p in planes]
-    hi = [np.asarray(p[6].max if p[6] is not None else (np.inf,) * 3, dtype=float) for p in planes]
+    grow = EXTENT_TOLERANCE * dx  # an extent edge on a lattice point or a virtual column includes it
+    lo = [np.asarray(p[6].min if p[6] is not None else (-np.inf,) * 3, dtype=float) - grow for p in planes]
+    hi = [np.asarray(p[6].max if p[6] is not None else (np.inf,) * 3, dtype=float) + grow for p in planes]
     big = np.finfo(np.float32).max
     model = Model(
         scene=scene,
@@ -207,11 +211,13 @@ def build(scene: Scene, device: str = "cpu", precision: str | None = None) -> tu
         particle_mass=arr(ext(real_mass, g_src).astype(npr), real),
         particle_material=arr(ext(np.array([body_mat[b] for b in real_body], np.int32), g_src), wp.int32),
         particle_x0=real_pts.copy(),
+        particle_origin=arr(real_pts.astype(npr), vec3, (0, 3)),
         particle_ghost_source=arr(g_src, wp.int32),
         particle_ghost_planes=arr(g_chain, wp.vec3i, (0, 3)),
         virtual_count=len(virt_pts),
         virtual_ghost_count=len(vg_src),
         virtual_mass=arr(ext(virt_mass, vg_src).astype(npr), real),
+        virtual_origin=arr(virt_pts.astype(npr), vec3, (0, 3)),
         virtual_material=arr(ext(np.array([body_mat[b] for b in virt_body], np.int32), vg_src), wp.int32),
         virtual_ghost_source=arr(vg_src, wp.int32),
         virtual_ghost_planes=arr(vg_chain, wp.vec3i, (0, 3)),
@@ -239,7 +245,7 @@ def build(scene: Scene, device: str = "cpu", precision: str | None = None) -> tu
         region_velocity=arr(np.array([ld.velocity for ld in vel_loads], npr), vec3, (0, 3)),
         region_functions=[ld.time_function for ld in vel_loads],
         particle_ids=np.arange(n, dtype=np.int64),
-        pore=(build_pore_water(scene, [p[8] for p in planes], float(real_pts[:, 1].max()), vec3, device)
+        pore=(build_pore_water(scene, [p[8] for p in planes], float(real_pts[:, 1].max()), vec3, grow, device)
               if pore else None),
     )
 

@@ -47,6 +47,8 @@ class Model:
     """(N+G,) int32 material index."""
     particle_x0: np.ndarray
     """(N,3) initial positions [m], host copy."""
+    particle_origin: wp.array
+    """(N,) vec3 initial positions [m]: load and drainage extents select particles by them."""
     particle_ghost_source: wp.array
     """(G,) int32 owned particle each ghost mirrors."""
     particle_ghost_planes: wp.array
@@ -58,6 +60,8 @@ class Model:
     """(M+GV,) mass [kg] of the virtual stress points."""
     virtual_material: wp.array
     """(M+GV,) int32."""
+    virtual_origin: wp.array
+    """(M,) vec3 initial positions of the virtual points [m] (for extents, as particle_origin)."""
     virtual_ghost_source: wp.array
     virtual_ghost_planes: wp.array
 

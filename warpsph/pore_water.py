@@ -55,10 +55,10 @@ class PoreWaterModel:
         return water_density * (shifted @ b)
 
 
-def build_pore_water(scene: Scene, planes_drainage: list, top: float, vec3, device) -> PoreWaterModel:
+def build_pore_water(scene: Scene, planes_drainage: list, top: float, vec3, grow: float, device) -> PoreWaterModel:
     """Arrays of the pore_water effect for ``scene``; ``planes_drainage`` is one Drainage per plane
     (in the model's plane order), ``top`` the highest particle level [m] (default water table),
-    ``vec3`` the Warp vector type of positions."""
+    ``vec3`` the Warp vector type of positions, ``grow`` [m] the margin added to drainage extents."""
     mats = list(scene.materials.values())
     big = float(np.finfo(np.float32).max)
     extents = [d.extent or Region() for d in planes_drainage] or [Region()]
@@ -77,7 +77,7 @@ def build_pore_water(scene: Scene, planes_drainage: list, top: float, vec3, devi
         plane_pressure=arr([d.pore_pressure for d in planes_drainage] or [0.0]),
         plane_head=arr([nan if d.head is None else d.head for d in planes_drainage] or [nan]),
         plane_inflow=arr([d.inflow for d in planes_drainage] or [0.0]),
-        plane_drained_lo=arr(np.clip([e.min for e in extents], -big, big), vec3),
-        plane_drained_hi=arr(np.clip([e.max for e in extents], -big, big), vec3),
+        plane_drained_lo=arr(np.clip(np.array([e.min for e in extents]) - grow, -big, big), vec3),
+        plane_drained_hi=arr(np.clip(np.array([e.max for e in extents]) + grow, -big, big), vec3),
         planes=list(planes_drainage),
     )

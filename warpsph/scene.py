@@ -61,10 +61,12 @@ class Region:
         hi = np.asarray(self.max, dtype=float) + tol
         return np.all((points >= lo) & (points <= hi), axis=1)
 
-    def contains_on_face(self, points: np.ndarray, axis: int) -> np.ndarray:
-        """Boolean mask of the (N,3) ``points`` inside the box, coordinate ``axis`` aside (a face's extent)."""
+    def contains_on_face(self, points: np.ndarray, axis: int, tol: float = 0.0) -> np.ndarray:
+        """Mask of the (N,3) ``points`` inside the box grown by ``tol`` [m], coordinate ``axis`` aside
+        (a face's extent)."""
         others = [k for k in range(3) if k != axis]
-        lo, hi = np.asarray(self.min, dtype=float)[others], np.asarray(self.max, dtype=float)[others]
+        lo = np.asarray(self.min, dtype=float)[others] - tol
+        hi = np.asarray(self.max, dtype=float)[others] + tol
         return np.all((points[:, others] >= lo) & (points[:, others] <= hi), axis=1)
 
 
@@ -226,11 +228,12 @@ class Drainage:
     inflow: float = 0.0
     extent: Region | None = None
 
-    def covers(self, points: np.ndarray, axis: int) -> np.ndarray:
-        """Mask of the (N,3) ``points`` of a face normal to ``axis`` where this condition holds."""
+    def covers(self, points: np.ndarray, axis: int, tol: float = 0.0) -> np.ndarray:
+        """Mask of the (N,3) ``points`` of a face normal to ``axis`` where this condition holds (its
+        extent grown by ``tol`` [m])."""
         if self.extent is None:
             return np.ones(len(points), dtype=bool)
-        return self.extent.contains_on_face(points, axis)
+        return self.extent.contains_on_face(points, axis, tol)
 
 
 class _OnPlane:

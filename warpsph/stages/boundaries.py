@@ -48,7 +48,7 @@ def plane_functions(spec: Spec):
     @wp.func
     def traction_here(p: int, x: vec3, axis: int, vector: wp.array(dtype=vec3), lo: wp.array(dtype=vec3),
                       hi: wp.array(dtype=vec3), factor: wp.array(dtype=real)):  # fmt: skip
-        """Traction t̄ f(t) at the plane point nearest x, zero outside the plane's extent."""
+        """Traction t̄ f(t) of plane p at a point that started at x, zero outside the plane's extent."""
         if inside_extent(p, x, axis, lo, hi):
             return vector[p] * factor[p]
         return vec3(real(0.0), real(0.0), real(0.0))
@@ -56,7 +56,7 @@ def plane_functions(spec: Spec):
     @wp.func
     def drainage_here(p: int, x: vec3, axis: int, drainage: wp.array(dtype=wp.int32), lo: wp.array(dtype=vec3),
                       hi: wp.array(dtype=vec3)):  # fmt: skip
-        """Drainage kind of plane p at the plane point nearest x (0, impermeable, outside its extent)."""
+        """Drainage kind of plane p at a point that started at x (0, impermeable, outside its extent)."""
         if inside_extent(p, x, axis, lo, hi):
             return drainage[p]
         return 0
@@ -99,6 +99,7 @@ def _kernels(spec: Spec):
         drainage: wp.array(dtype=wp.int32),
         drained_lo: wp.array(dtype=vec3),
         drained_hi: wp.array(dtype=vec3),
+        origin: wp.array(dtype=vec3),
         q: wp.array(dtype=vec3),
         v: wp.array(dtype=vec3),
         stress: wp.array(dtype=mat33),
@@ -136,7 +137,7 @@ def _kernels(spec: Spec):
                 else:
                     # the load at the source's own point: a ghost of a ghost across a symmetry
                     # plane sees the mirror image of the load, not the load at its mirrored place
-                    t = traction_here(p, q[src], m, plane_vector, plane_lo, plane_hi, factor)
+                    t = traction_here(p, origin[src], m, plane_vector, plane_lo, plane_hi, factor)
                     sign = plane_sign[p]
                     for k in range(3):
                         s[m, k] = two * sign * t[k] - s[m, k]
@@ -146,7 +147,7 @@ def _kernels(spec: Spec):
                         # an impermeable face carries the load with the pore water: σ′n = t̄ + p n; a
                         # drained face is in contact with water at its own pressure, so σ′n = t̄
                         p_face = real(0.0)
-                        if drainage_here(p, q[src], m, drainage, drained_lo, drained_hi) != 1:
+                        if drainage_here(p, origin[src], m, drainage, drained_lo, drained_hi) != 1:
                             p_face = pore_pressure_at(src, q[src], pore, material, water_density, gravity,
                                                       water_table)  # fmt: skip
                         s[m, m] = s[m, m] + two * p_face
@@ -174,6 +175,7 @@ def _kernels(spec: Spec):
         drainage: wp.array(dtype=wp.int32),
         drained_lo: wp.array(dtype=vec3),
         drained_hi: wp.array(dtype=vec3),
+        origin: wp.array(dtype=vec3),
         q: wp.array(dtype=vec3),
         v: wp.array(dtype=vec3),
         stress: wp.array(dtype=mat33),
@@ -195,13 +197,13 @@ def _kernels(spec: Spec):
                 elif kind == PLANE_SLIP:
                     u[m] = real(0.0)
                 else:
-                    t = traction_here(p, q[a], m, plane_vector, plane_lo, plane_hi, factor)
+                    t = traction_here(p, origin[a], m, plane_vector, plane_lo, plane_hi, factor)
                     for k in range(3):
                         s[m, k] = plane_sign[p] * t[k]
                         s[k, m] = s[m, k]
                     if wp.static(pore_water):
                         # as for the ghosts: only an impermeable face shares its load
-                        if drainage_here(p, q[a], m, drainage, drained_lo, drained_hi) != 1:
+                        if drainage_here(p, origin[a], m, drainage, drained_lo, drained_hi) != 1:
                             s[m, m] = s[m, m] + pore_pressure_at(a, q[a], pore, material, water_density, gravity,
                                                                  water_table)  # fmt: skip
         v[a] = u
@@ -314,7 +316,8 @@ class Boundaries:
         update_ghosts, *_ = _kernels(m.spec)
         launch(update_ghosts, m.particle_ghost_count,
                [m.particle_count, m.particle_ghost_source, m.particle_ghost_planes, *self._plane_args(),
-                *self._water_args(m.particle_material, pore), *self._drainage_args(), q, v, stress, density],
+                *self._water_args(m.particle_material, pore), *self._drainage_args(), m.particle_origin, q, v, stress,
+                density],
                m.device)  # fmt: skip
 
     def update_virtual_ghosts(self, q, v, stress, density, pore=None) -> None:
@@ -323,7 +326,8 @@ class Boundaries:
         update_ghosts, *_ = _kernels(m.spec)
         launch(update_ghosts, m.virtual_ghost_count,
                [m.virtual_count, m.virtual_ghost_source, m.virtual_ghost_planes, *self._plane_args(),
-                *self._water_args(m.virtual_material, pore), *self._drainage_args(), q, v, stress, density],
+                *self._water_args(m.virtual_material, pore), *self._drainage_args(), m.virtual_origin, q, v, stress,
+                density],
                m.device)  # fmt: skip
 
     def prescribe_virtual(self, v_half) -> None:
@@ -341,7 +345,7 @@ class Boundaries:
         plane_args = self._plane_args()
         launch(on_planes, m.constraint_count,
                [m.constraint_particle, m.constraint_planes, plane_args[0], *plane_args[2:],
-                *self._water_args(m.particle_material, pore), *self._drainage_args(), q, v, stress],
+                *self._water_args(m.particle_material, pore), *self._drainage_args(), m.particle_origin, q, v, stress],
                m.device)  # fmt: skip
         launch(in_regions, m.region_count,
                [m.region_particle, m.region_load, m.region_velocity, self.region_factor, v], m.device)

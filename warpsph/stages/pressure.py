@@ -24,6 +24,7 @@ import numpy as np
 import warp as wp
 
 from warpsph.errors import SimulationError
+from warpsph.builder import EXTENT_TOLERANCE
 from warpsph.launching import launch
 from warpsph.model import Model
 from warpsph.sph.kernels import kernel_derivative
@@ -83,7 +84,7 @@ def _kernels(spec: Spec):
                      head: wp.array(dtype=f64), inflow: wp.array(dtype=f64), water_density: f64, k: f64,
                      gravity: vec3, water_table: f64, homogeneous: int):  # fmt: skip
         """(s, c) with p_ghost = s p_source + c for ghost g (c = 0 when ``homogeneous``); each plane
-        drains (odd parity) where the point ``where`` lies in its drained extent."""
+        drains (odd parity) where the initial position ``where`` lies in its drained extent."""
         x = q[source[g]]
         s = f64(1.0)
         c = zero
@@ -110,7 +111,7 @@ def _kernels(spec: Spec):
     @wp.kernel(enable_backward=False, module="unique")
     def pressure_ghosts(
         n_owned: int, source: wp.array(dtype=wp.int32), chain: wp.array(dtype=wp.vec3i), q: wp.array(dtype=vec3),
-        material: wp.array(dtype=wp.int32), plane_axis: wp.array(dtype=wp.int32),
+        origin: wp.array(dtype=vec3), material: wp.array(dtype=wp.int32), plane_axis: wp.array(dtype=wp.int32),
         plane_position: wp.array(dtype=real), plane_sign: wp.array(dtype=real), drainage: wp.array(dtype=wp.int32),
         drained_lo: wp.array(dtype=vec3), drained_hi: wp.array(dtype=vec3), drained_pressure: wp.array(dtype=f64),
         head: wp.array(dtype=f64), inflow: wp.array(dtype=f64), water_density: wp.array(dtype=f64),
@@ -119,7 +120,7 @@ def _kernels(spec: Spec):
         g = wp.tid()
         src = source[g]
         mat = material[src]
-        s, c = ghost_affine(g, source, chain, q, q[src], plane_axis, plane_position, plane_sign, drainage, drained_lo,
+        s, c = ghost_affine(g, source, chain, q, origin[src], plane_axis, plane_position, plane_sign, drainage, drained_lo,
                             drained_hi, drained_pressure, head, inflow, water_density[mat], permeability[mat], gravity,
                             water_table, homogeneous)  # fmt: skip
         p[n_owned + g] = s * p[src] + c
@@ -233,8 +234,8 @@ def _kernels(spec: Spec):
     @wp.kernel(enable_backward=False, module="unique")
     def assemble(
         h: real, dt: real, scale: f64, n: int, offsets: wp.array(dtype=wp.int32), nbr: wp.array(dtype=wp.int32),
-        q: wp.array(dtype=vec3), mass: wp.array(dtype=real), density: wp.array(dtype=real),
-        material: wp.array(dtype=wp.int32), permeability: wp.array(dtype=f64), inv_biot: wp.array(dtype=f64),
+        q: wp.array(dtype=vec3), origin: wp.array(dtype=vec3), mass: wp.array(dtype=real),
+        density: wp.array(dtype=real), material: wp.array(dtype=wp.int32), permeability: wp.array(dtype=f64), inv_biot: wp.array(dtype=f64),
         water_density: wp.array(dtype=f64), gravity: vec3, v_star: wp.array(dtype=vec3),
         div_v_star: wp.array(dtype=f64), p_old: wp.array(dtype=f64), ghost_source: wp.array(dtype=wp.int32),
         ghost_chain: wp.array(dtype=wp.vec3i), plane_axis: wp.array(dtype=wp.int32),
@@ -277,7 +278,7 @@ def _kernels(spec: Spec):
                 col = ghost_source[g]
                 # a pair meeting across a plane drains by its midpoint, as its mirror pair does: the
                 # matrix stays symmetric where a drained extent ends
-                s, cst = ghost_affine(g, ghost_source, ghost_chain, q, real(0.5) * (x + q[col]), plane_axis,
+                s, cst = ghost_affine(g, ghost_source, ghost_chain, q, real(0.5) * (origin[a] + origin[col]), plane_axis,
                                       plane_position, plane_sign, drainage, drained_lo, drained_hi, drained_pressure,
                                       head, inflow, water_density[mat_j], permeability[mat_j], gravity, water_table,
                                       0)  # fmt: skip
@@ -438,7 +439,7 @@ class PressureProjection:
         axes = m.plane_axis.numpy()
         for a, planes in zip(m.constraint_particle.numpy(), m.constraint_planes.numpy().reshape(-1, 3)):
             for p in planes[planes >= 0]:
-                if drainage[p] == 1 and pw.planes[p].covers(x[a : a + 1], axes[p])[0]:
+                if drainage[p] == 1 and pw.planes[p].covers(x[a : a + 1], axes[p], EXTENT_TOLERANCE * m.dx)[0]:
                     total = pressure[p] if np.isnan(head[p]) else rho_w[a] * g * (head[p] - x[a, 1])
                     on[a], val[a] = 1, total - hydro[a]
         return on, val
@@ -452,14 +453,15 @@ class PressureProjection:
         """Pressure-parity values of the ghosts of the real (or virtual) set in ``p``."""
         m, pw = self.model, self.model.pore
         if virtual:
-            n, src, chain, mat, count = (m.virtual_count, m.virtual_ghost_source, m.virtual_ghost_planes,
-                                         m.virtual_material, m.virtual_ghost_count)  # fmt: skip
+            n, src, chain, mat, count, origin = (m.virtual_count, m.virtual_ghost_source, m.virtual_ghost_planes,
+                                                 m.virtual_material, m.virtual_ghost_count, m.virtual_origin)  # fmt: skip
         else:
-            n, src, chain, mat, count = (m.particle_count, m.particle_ghost_source, m.particle_ghost_planes,
-                                         m.particle_material, m.particle_ghost_count)  # fmt: skip
+            n, src, chain, mat, count, origin = (m.particle_count, m.particle_ghost_source, m.particle_ghost_planes,
+                                                 m.particle_material, m.particle_ghost_count,
+                                                 m.particle_origin)  # fmt: skip
         args = self._plane_args()
         launch(self.k["pressure_ghosts"], count,
-               [n, src, chain, q, mat, args[0], args[1], args[2], *args[3:], pw.material_water_density,
+               [n, src, chain, q, origin, mat, args[0], args[1], args[2], *args[3:], pw.material_water_density,
                 pw.material_permeability, m.spec.vec3(*pw.gravity), wp.float64(pw.water_table), int(homogeneous), p],
                m.device)  # fmt: skip
 
@@ -499,7 +501,8 @@ class PressureProjection:
                 self.value], dev)  # fmt: skip
         args = self._plane_args()
         launch(self.k["assemble"], n,
-               [h, real(dt), wp.float64(self.scale), n, nl.offsets, nl.indices, si.particle_q, m.particle_mass,
+               [h, real(dt), wp.float64(self.scale), n, nl.offsets, nl.indices, si.particle_q, m.particle_origin,
+                m.particle_mass,
                 si.particle_density, m.particle_material, pw.material_permeability, pw.material_inv_biot,
                 pw.material_water_density, gravity, so.particle_v, self.div_v_star, self.p_old,
                 m.particle_ghost_source, m.particle_ghost_planes, *args, wp.float64(pw.water_table), self.dirichlet,
