@@ -57,15 +57,20 @@ def test_saturated_column_stays_at_rest():
     assert np.max(np.abs(effective - geostatic)) < 1e-3 * 700 * g * height
 
 
+def loaded_column(material, top="drained", sigma0=5000.0, height=10.0, dx=0.1):
+    """1D saturated column on a fixed impermeable base under a step load σ₀ [Pa] on its top face,
+    whose drainage kind is ``top`` (tests/stability reuses it)."""
+    return Scene(simulation=Simulation(dim=1, dx=dx), effects=Effects(pore_water=True), materials={"soil": material},
+                 bodies=[Body("column", "soil", min=(0, 0, 0), max=(0, height, 0))],
+                 boundaries=[Boundary("base", "fixed", "y", 0.0, "min")],
+                 loads=[Load("top", "traction", "y", height, "max", traction=(0, -sigma0, 0),
+                             drainage=Drainage(top))]).validate()  # fmt: skip
+
+
 def test_undrained_limit_carries_the_load_in_the_water():
     sigma0, height, dx = 5000.0, 10.0, 0.1
     undrained = soil(hydraulic_conductivity=1e-12, water_bulk_modulus=1e12)
-    scene = Scene(simulation=Simulation(dim=1, dx=dx), effects=Effects(pore_water=True),
-                  materials={"soil": undrained},
-                  bodies=[Body("column", "soil", min=(0, 0, 0), max=(0, height, 0))],
-                  boundaries=[Boundary("base", "fixed", "y", 0.0, "min")],
-                  loads=[Load("top", "traction", "y", height, "max", traction=(0, -sigma0, 0),
-                              drainage=Drainage("drained"))]).validate()  # fmt: skip
+    scene = loaded_column(undrained, sigma0=sigma0, height=height, dx=dx)
     drained = Scene(simulation=scene.simulation, effects=scene.effects, materials={"soil": soil()},
                     bodies=scene.bodies, boundaries=scene.boundaries, loads=scene.loads)  # fmt: skip
     assert scene.time_step == drained.time_step  # Δt from the drained wave speed, whatever Q and k

@@ -30,7 +30,8 @@ def march(scene, steps: int, observe=None, every: int = 1, setup=None, device: s
     """Build ``scene`` and take ``steps`` steps of its Δt; return (model, state, solver).
 
     ``setup(model, state)`` may edit the initial state; ``observe(k, model, state)`` is called after
-    every ``every``-th step (k = steps taken) and once before the first (k = 0).
+    every ``every``-th step (k = steps taken) and once before the first (k = 0); the run stops early
+    when it returns False (a blow-up need not be followed to the end).
     """
     model, state = build(scene, device=device)
     if setup is not None:
@@ -43,8 +44,8 @@ def march(scene, steps: int, observe=None, every: int = 1, setup=None, device: s
     for k in range(steps):
         solver.step(state, scratch, k * dt, dt)
         state, scratch = scratch, state
-        if observe is not None and (k + 1) % every == 0:
-            observe(k + 1, model, state)
+        if observe is not None and (k + 1) % every == 0 and observe(k + 1, model, state) is False:
+            break
     return model, state, solver
 
 
