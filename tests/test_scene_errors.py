@@ -150,6 +150,7 @@ BAD_CASES = {
     "nu = -1.2": (edit("poisson_ratio = 0.3", "poisson_ratio = -1.2"), "materials.soil.poisson_ratio"),
     "zero density": (edit("density = 2000", "density = 0"), "materials.soil.density"),
     "empty body": (edit("min = [0, 0]\nmax = [0.5, 2.0]", "min = [0.02, 0.02]\nmax = [0.08, 0.08]"), "bodies.column"),
+    "dx far too small": (edit("dx = 0.1", "dx = 1e-11"), "bodies.column"),
     "smoothing ratio 1.0": (edit("smoothing_ratio = 1.3", "smoothing_ratio = 1.0"), "simulation.smoothing_ratio"),
     "smoothing ratio 3.0": (edit("smoothing_ratio = 1.3", "smoothing_ratio = 3.0"), "simulation.smoothing_ratio"),
     "unknown kernel": (edit('kernel = "cubic_spline"', 'kernel = "gaussian"'), "simulation.kernel"),
