@@ -61,20 +61,21 @@ def cell_share(model) -> np.ndarray:
 def energy(model, state) -> float:
     """Kinetic plus elastic strain energy [J per unit area (1D) or length (2D)] of the owned
     particles, each weighted by its volume m/ρ and its :func:`cell_share`; the strain energy
-    density of the hypo-elastic stress is s:s/(4G) + (tr σ)²/(18K)."""
+    density of the hypo-elastic stress is s:s/(4G) + (tr σ)²/(18K). A blown-up state gives inf or nan."""
     n = model.particle_count
-    mass = model.particle_mass.numpy()[:n].astype(np.float64) * cell_share(model)
-    volume = mass / state.particle_density.numpy()[:n]
-    v = state.particle_v.numpy()[:n].astype(np.float64)
-    s = state.particle_stress.numpy()[:n].astype(np.float64)
     materials = list(model.scene.materials.values())
     index = model.particle_material.numpy()[:n]
     shear = np.array([m.shear_modulus for m in materials])[index]
     bulk = np.array([m.bulk_modulus for m in materials])[index]
-    trace = np.trace(s, axis1=1, axis2=2)
-    dev = s - trace[:, None, None] / 3.0 * np.eye(3)
-    density = np.einsum("nij,nij->n", dev, dev) / (4.0 * shear) + trace**2 / (18.0 * bulk)
-    return float(0.5 * np.sum(mass * np.sum(v * v, axis=1)) + np.sum(volume * density))
+    with np.errstate(all="ignore"):
+        mass = model.particle_mass.numpy()[:n].astype(np.float64) * cell_share(model)
+        volume = mass / state.particle_density.numpy()[:n]
+        v = state.particle_v.numpy()[:n].astype(np.float64)
+        s = state.particle_stress.numpy()[:n].astype(np.float64)
+        trace = np.trace(s, axis1=1, axis2=2)
+        dev = s - trace[:, None, None] / 3.0 * np.eye(3)
+        density = np.einsum("nij,nij->n", dev, dev) / (4.0 * shear) + trace**2 / (18.0 * bulk)
+        return float(0.5 * np.sum(mass * np.sum(v * v, axis=1)) + np.sum(volume * density))
 
 
 def largest_rise(series) -> float:
@@ -87,7 +88,8 @@ def closest_pair(points: np.ndarray) -> float:
     """Smallest distance between two of the (N,3) ``points`` [m] (brute force, chunked)."""
     best = np.inf
     for start in range(0, len(points), 256):
-        d = np.linalg.norm(points[start:start + 256, None, :] - points[None, :, :], axis=2)
+        with np.errstate(all="ignore"):
+            d = np.linalg.norm(points[start:start + 256, None, :] - points[None, :, :], axis=2)
         rows = np.arange(d.shape[0])
         d[rows, start + rows] = np.inf
         best = min(best, float(d.min()))

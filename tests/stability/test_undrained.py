@@ -63,6 +63,7 @@ def test_drained_top_column_displacement():
     assert error.max() < top_row
 
 
+@pytest.mark.filterwarnings("ignore:pressure solve missed its tolerance")
 @expected_failure("diverges with alternating sign from the first step (p/σ₀ = -36, 203, -1077 at steps 2-4 "
                   "with K_w = 1e10; stable with K_w = 2.2e9) (measured, docs/stability.md)")
 def test_sealed_column():
@@ -73,6 +74,7 @@ def test_sealed_column():
     assert np.max(np.abs(u + SIGMA0 * y / (e_oed + q))) < 0.01 * undrained_settlement()
 
 
+@pytest.mark.filterwarnings("ignore:pressure solve missed its tolerance")
 @expected_failure("diverges within a shear transit; with a drained top and free surface its speed still grows "
                   "2000-fold in 600 steps; stable with K_w = 1e8 Pa, k_h = 1e-3 m/s (measured, docs/stability.md)")
 def test_plane_strain_block_with_a_free_side():
