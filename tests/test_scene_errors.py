@@ -143,6 +143,7 @@ BAD_CASES = {
     "string dx": (edit("dx = 0.1", 'dx = "abc"'), "simulation.dx"),
     "boolean dx": (edit("dx = 0.1", "dx = true"), "simulation.dx"),
     "missing material": (edit('material = "soil"', 'material = "clay"'), "bodies.column.material"),
+    "newline in a material name": (edit('material = "soil"', 'material = "so\\nil"'), "bodies.column.material"),
     "unknown material model": (edit('model = "elastic"', 'model = "mohr_coulomb"'), "materials.soil.model"),
     "zero E": (edit("youngs_modulus = 1e7", "youngs_modulus = 0"), "materials.soil.youngs_modulus"),
     "negative E": (edit("youngs_modulus = 1e7", "youngs_modulus = -1e7"), "materials.soil.youngs_modulus"),
