@@ -35,37 +35,50 @@ def advance(scene, steps):
     return model, state, solver, vmax
 
 
-def test_saturated_column_stays_at_rest():
-    g, height = 9.81, 10.0
-    scene = Scene(simulation=Simulation(dim=1, dx=0.2, gravity=(0, -g, 0)), effects=Effects(pore_water=True),
-                  materials={"soil": soil()},
-                  bodies=[Body("column", "soil", min=(0, 0, 0), max=(0, height, 0), geostatic=True)],
-                  boundaries=[Boundary("base", "fixed", "y", 0.0, "min"),
-                              Boundary("top", "free", "y", height, "max", drainage=Drainage("drained"))],
-                  ).validate()  # fmt: skip
-    model, state, solver, vmax = advance(scene, 10_000)
+def resting_column(height=10.0, g=9.81):
+    """1D saturated column under gravity, drained at its free top, started geostatic and hydrostatic."""
+    return Scene(simulation=Simulation(dim=1, dx=0.2, gravity=(0, -g, 0)), effects=Effects(pore_water=True),
+                 materials={"soil": soil()},
+                 bodies=[Body("column", "soil", min=(0, 0, 0), max=(0, height, 0), geostatic=True)],
+                 boundaries=[Boundary("base", "fixed", "y", 0.0, "min"),
+                             Boundary("top", "free", "y", height, "max", drainage=Drainage("drained"))],
+                 ).validate()  # fmt: skip
+
+
+def rest_errors(steps, height=10.0, g=9.81):
+    """Run :func:`resting_column` for ``steps``: (largest speed [m/s], largest pore-pressure error over
+    ρ_w g H, largest effective-stress error over (ρ − ρ_w) g H)."""
+    model, state, solver, vmax = advance(resting_column(height, g), steps)
     fields = host_fields(model, state)
     depth = height - model.particle_x0[:, 1]
-    hydrostatic = 1000.0 * g * depth
-    error = np.max(np.abs(fields["pore_pressure"] - hydrostatic)) / (1000.0 * g * height)
-    effective = fields["stress"][:, 1, 1]
-    geostatic = -(1700.0 - 1000.0) * g * depth
-    print(f"\n10 000 steps at rest: max speed {vmax:.2e} m/s, pore pressure error {error:.2e} of ρ_w g H, "
-          f"effective stress error {np.max(np.abs(effective - geostatic)) / (700 * g * height):.2e}")
+    pressure = np.max(np.abs(fields["pore_pressure"] - 1000.0 * g * depth)) / (1000.0 * g * height)
+    stress = np.max(np.abs(fields["stress"][:, 1, 1] + (1700.0 - 1000.0) * g * depth)) / (700.0 * g * height)
+    return vmax, pressure, stress
+
+
+def test_saturated_column_stays_at_rest():
+    vmax, pressure, stress = rest_errors(10_000)
+    print(f"\n10 000 steps at rest: max speed {vmax:.2e} m/s, pore pressure error {pressure:.2e} of ρ_w g H, "
+          f"effective stress error {stress:.2e}")
     assert vmax < 1e-8
-    assert error < 1e-3
-    assert np.max(np.abs(effective - geostatic)) < 1e-3 * 700 * g * height
+    assert pressure < 1e-3
+    assert stress < 1e-3
+
+
+def loaded_column(material, top="drained", sigma0=5000.0, height=10.0, dx=0.1):
+    """1D saturated column on a fixed impermeable base under a step load σ₀ [Pa] on its top face,
+    whose drainage kind is ``top`` (tests/stability reuses it)."""
+    return Scene(simulation=Simulation(dim=1, dx=dx), effects=Effects(pore_water=True), materials={"soil": material},
+                 bodies=[Body("column", "soil", min=(0, 0, 0), max=(0, height, 0))],
+                 boundaries=[Boundary("base", "fixed", "y", 0.0, "min")],
+                 loads=[Load("top", "traction", "y", height, "max", traction=(0, -sigma0, 0),
+                             drainage=Drainage(top))]).validate()  # fmt: skip
 
 
 def test_undrained_limit_carries_the_load_in_the_water():
     sigma0, height, dx = 5000.0, 10.0, 0.1
     undrained = soil(hydraulic_conductivity=1e-12, water_bulk_modulus=1e12)
-    scene = Scene(simulation=Simulation(dim=1, dx=dx), effects=Effects(pore_water=True),
-                  materials={"soil": undrained},
-                  bodies=[Body("column", "soil", min=(0, 0, 0), max=(0, height, 0))],
-                  boundaries=[Boundary("base", "fixed", "y", 0.0, "min")],
-                  loads=[Load("top", "traction", "y", height, "max", traction=(0, -sigma0, 0),
-                              drainage=Drainage("drained"))]).validate()  # fmt: skip
+    scene = loaded_column(undrained, sigma0=sigma0, height=height, dx=dx)
     drained = Scene(simulation=scene.simulation, effects=scene.effects, materials={"soil": soil()},
                     bodies=scene.bodies, boundaries=scene.boundaries, loads=scene.loads)  # fmt: skip
     assert scene.time_step == drained.time_step  # Δt from the drained wave speed, whatever Q and k

@@ -10,7 +10,7 @@ import argparse
 import sys
 from pathlib import Path
 
-from warpsph.errors import InputError, SceneError, SimulationError
+from warpsph.errors import InputError, SceneError, SimulationError, one_line
 
 EXIT_UNSTABLE, EXIT_BAD_INPUT = 1, 2
 
@@ -54,7 +54,7 @@ def _init_warp():
 
 
 def _fail(code: int, message: str) -> int:
-    print(f"warpsph: error: {message}", file=sys.stderr)
+    print(f"warpsph: error: {one_line(message)}", file=sys.stderr)
     return code
 
 

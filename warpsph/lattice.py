@@ -42,6 +42,22 @@ def fill_cells(body: Body, dx: float, dim: int) -> np.ndarray:
     return _fill(body, dx, dim, offset=0.5, shrink=shrink)
 
 
+def lattice_span(body: Body, dx: float, dim: int) -> int:
+    """Number of lattice points in the body's bounding box, computed without listing them: the count of
+    :func:`fill_body` for a box, an upper bound of it for other shapes."""
+    return math.prod(max(0, last - first + 1) for first, last in _index_bounds(body, dx, dim, 0.0, 0.0))
+
+
+def has_lattice_point(body: Body, dx: float, dim: int) -> bool:
+    """Whether :func:`fill_body` would return any point; stops at the first chunk that holds one (a box
+    is decided from its bounds alone)."""
+    if body.shape == "box":
+        return lattice_span(body, dx, dim) > 0
+    tol = TOLERANCE * dx
+    ranges = _index_ranges(body, dx, dim, offset=0.0, shrink=0.0)
+    return any(np.any(_contains(body, p, dim, tol)) for p in _candidates(ranges, dx, dim, 0.0))
+
+
 def count_lattice_points(body: Body, dx: float, dim: int) -> int:
     """Number of points :func:`fill_body` would return, without holding them all in memory."""
     ranges = _index_ranges(body, dx, dim, offset=0.0, shrink=0.0)
@@ -80,16 +96,20 @@ def _bounds(body: Body, dim: int) -> tuple[np.ndarray, np.ndarray]:
     raise ValueError(f"unknown body shape {body.shape!r}")
 
 
-def _index_ranges(body: Body, dx: float, dim: int, offset: float, shrink: float) -> list[np.ndarray]:
-    """Lattice indices k per axis (x, y, z) whose coordinate (k + offset) Δx may lie in the body."""
+def _index_bounds(body: Body, dx: float, dim: int, offset: float, shrink: float) -> list[tuple[int, int]]:
+    """(first, last) lattice index k per axis (x, y, z) whose coordinate (k + offset) Δx may lie in the
+    body; (0, 0) on unused axes."""
     lo, hi = _bounds(body, dim)
     tol = TOLERANCE * dx
-    ranges = [np.zeros(1, dtype=np.int64)] * 3
+    bounds = [(0, 0)] * 3
     for a in used_axes(dim):
-        first = math.ceil((lo[a] + shrink - tol) / dx - offset)
-        last = math.floor((hi[a] - shrink + tol) / dx - offset)
-        ranges[a] = np.arange(first, last + 1, dtype=np.int64)
-    return ranges
+        bounds[a] = (math.ceil((lo[a] + shrink - tol) / dx - offset), math.floor((hi[a] - shrink + tol) / dx - offset))
+    return bounds
+
+
+def _index_ranges(body: Body, dx: float, dim: int, offset: float, shrink: float) -> list[np.ndarray]:
+    """Lattice indices k per axis (x, y, z) whose coordinate (k + offset) Δx may lie in the body."""
+    return [np.arange(first, last + 1, dtype=np.int64) for first, last in _index_bounds(body, dx, dim, offset, shrink)]
 
 
 def _candidates(ranges: list[np.ndarray], dx: float, dim: int, offset: float) -> Iterator[np.ndarray]:

@@ -93,6 +93,7 @@ class Run:
         self.probes = Probes(self.model)
         self.dt = scene.time_step
         self.step_index = 0
+        self.checkpoint_step = None  # step of the last checkpoint written or resumed from
         self.resumed = False
         if resume and (self.out / CHECKPOINT).exists():
             self._restore(load_checkpoint(self.out / CHECKPOINT))
@@ -122,10 +123,11 @@ class Run:
         if float(ck.meta.get("time_step", self.dt)) != self.dt:
             raise InputError("--resume: the checkpoint was written with another time step")
         self.scratch.assign(self.state)
-        self.step_index = ck.step
+        self.step_index = self.checkpoint_step = ck.step
         self.resumed = True
 
     def _checkpoint(self) -> None:
+        self.checkpoint_step = self.step_index
         arrays = {name: arr.numpy() for name, arr in self.state.arrays().items()}
         save_checkpoint(self.out / CHECKPOINT, step=self.step_index, time=self.time, arrays=arrays,
                         meta={"time_step": self.dt, "scene": self.scene.name,
@@ -220,12 +222,19 @@ class Run:
         if bad is None:
             return
         f = host_fields(self.model, self.state)
-        speed = float(np.linalg.norm(f["velocity"][bad]))
+        broken = [f"a non-finite {name.replace('_', ' ')}" for name in ("position", "velocity", "stress", "density",
+                  "pore_pressure") if name in f and not np.all(np.isfinite(f[name][bad]))]  # fmt: skip
+        if f["density"][bad] <= 0.0:
+            broken.append(f"a non-positive density ({f['density'][bad]:.4g} kg/m³)")
+        if broken:
+            what = f"has {' and '.join(broken)}"
+        else:
+            what = (f"moves at {float(np.linalg.norm(f['velocity'][bad])):.4g} m/s, beyond simulation.velocity_limit "
+                    f"= {self.scene.simulation.velocity_limit:g} m/s")  # fmt: skip
         raise SimulationError(
             f"unstable at step {self.step_index}, t = {self.time:.6g} s: particle {bad} at "
-            f"{np.array2string(f['position'][bad], precision=4)} m has speed {speed:.4g} m/s "
-            f"(limit {self.scene.simulation.velocity_limit:g}) or a non-finite field; "
-            f"the last good checkpoint and frames are kept in {self.out}")
+            f"{np.array2string(f['position'][bad], precision=4)} m {what}; the last good checkpoint "
+            f"(step {self.checkpoint_step}) and the frames written are kept in {self.out}")
 
     def run(self, progress=None) -> RunSummary:
         """Step to the end time, writing frames, probes and checkpoints; return the summary.

@@ -152,6 +152,7 @@ class Solver:
     # -- collocated baseline --------------------------------------------------------------------
     def _init_collocated(self) -> None:
         m, s, dev = self.model, self.model.spec, self.model.device
+        self.projection = None  # no pore water in the collocated scheme (the run loop asks)
         n, ne = m.particle_count, m.particle_total
         self.real_to_real = NeighbourList(s, m.extent, self.support, dev, same_set=True)
         self.stage_v = wp.zeros(ne, dtype=s.vec3, device=dev)

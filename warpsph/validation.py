@@ -24,7 +24,7 @@ from collections.abc import Iterable, Sequence
 import numpy as np
 
 from warpsph.errors import SceneError
-from warpsph.lattice import count_lattice_points, polygon_area, used_axes
+from warpsph.lattice import has_lattice_point, lattice_span, polygon_area, used_axes
 from warpsph.scene import (
     AXES,
     Body,
@@ -65,6 +65,9 @@ UNBOUNDED_FIELDS = {
 """Number fields that may be ±infinity (all others must be finite)."""
 MIN_MODULUS = 1.0e3
 """Moduli below this [Pa] are taken for a unit mistake (kPa or MPa written as Pa)."""
+MAX_PARTICLES = 2**31 - 1
+"""A run indexes particles with 32-bit integers; a body spanning more lattice points is refused before
+its points are listed (a dx written in mm as metres would otherwise exhaust memory or time)."""
 
 _NAME = re.compile(r"[A-Za-z0-9_-]+")
 
@@ -467,7 +470,11 @@ def _check_body(body: Body, key: str, scene: Scene) -> None:
             raise SceneError(f"{key}.vertices", "the polygon has zero area")
     else:
         check_range(f"{key}.radius", body.radius, POSITIVE)
-    if count_lattice_points(body, dx, dim) == 0:
+    span = lattice_span(body, dx, dim)
+    if span > MAX_PARTICLES:
+        raise SceneError(key, f"spans {span:.3g} lattice points of spacing dx = {show(dx)}, more than the "
+                              f"{MAX_PARTICLES} particles a run can index (dx is in metres)")  # fmt: skip
+    if not has_lattice_point(body, dx, dim):
         raise SceneError(key, f"empty body: no lattice point of spacing dx = {show(dx)} lies inside it")
 
 

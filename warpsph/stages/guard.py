@@ -1,4 +1,5 @@
-"""Run guard: finds the first particle whose fields are not finite or whose speed is too high."""
+"""Run guard: finds the first particle whose fields (position, velocity, stress, density and, with pore
+water, pore pressure) are not finite, whose density is not positive or whose speed is too high."""
 
 import functools
 
@@ -14,17 +15,23 @@ NO_PARTICLE = 2**31 - 1
 @functools.cache
 def _kernel(spec: Spec):
     real, vec3, mat33 = spec.real, spec.vec3, spec.mat33
+    pore_water = spec.effects.pore_water
 
     @wp.kernel(enable_backward=False, module="unique")
     def find_bad(
         q: wp.array(dtype=vec3),
         v: wp.array(dtype=vec3),
         stress: wp.array(dtype=mat33),
+        density: wp.array(dtype=real),
+        pore_pressure: wp.array(dtype=wp.float64),
         speed_limit: real,
         first_bad: wp.array(dtype=wp.int32),
     ):
         a = wp.tid()
-        ok = wp.isfinite(q[a]) and wp.isfinite(v[a]) and wp.isfinite(stress[a])
+        ok = wp.isfinite(q[a]) and wp.isfinite(v[a]) and wp.isfinite(stress[a]) and density[a] > real(0.0)
+        ok = ok and wp.isfinite(density[a])
+        if wp.static(pore_water):
+            ok = ok and wp.isfinite(pore_pressure[a])
         if not ok or wp.length(v[a]) > speed_limit:
             wp.atomic_min(first_bad, 0, a)
 
@@ -43,7 +50,8 @@ class Guard:
         m = self.model
         self.flag.fill_(NO_PARTICLE)
         launch(_kernel(m.spec), m.particle_count,
-               [state.particle_q, state.particle_v, state.particle_stress, m.spec.real(self.speed_limit), self.flag],
+               [state.particle_q, state.particle_v, state.particle_stress, state.particle_density,
+                state.particle_pore_pressure, m.spec.real(self.speed_limit), self.flag],
                m.device)  # fmt: skip
         bad = int(self.flag.numpy()[0])
         return None if bad == NO_PARTICLE else bad

@@ -1,0 +1,96 @@
+"""Shared tools of the stability suite: stepping in memory, energies, spacing and peak measures."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from warpsph.builder import build
+from warpsph.solver import Solver
+
+SCHEMES = ("two_set", "collocated")
+SCENES = Path(__file__).resolve().parents[2] / "scenes"
+
+
+def expected_failure(reason: str):
+    """Mark of a case measured to fail: strict, so that a pass is reported as an error too."""
+    return pytest.mark.xfail(strict=True, reason=reason)
+
+
+def scheme_params(xfail: dict | None = None) -> list:
+    """Both schemes as pytest parameters; those named in ``xfail`` are expected failures with the
+    measured reason given."""
+    xfail = xfail or {}
+    return [pytest.param(s, marks=expected_failure(xfail[s])) if s in xfail else s for s in SCHEMES]
+
+
+def march(scene, steps: int, observe=None, every: int = 1, setup=None, device: str = "cpu"):
+    """Build ``scene`` and take ``steps`` steps of its Δt; return (model, state, solver).
+
+    ``setup(model, state)`` may edit the initial state; ``observe(k, model, state)`` is called after
+    every ``every``-th step (k = steps taken) and once before the first (k = 0); the run stops early
+    when it returns False (a blow-up need not be followed to the end).
+    """
+    model, state = build(scene, device=device)
+    if setup is not None:
+        setup(model, state)
+    scratch = model.state()
+    scratch.assign(state)
+    solver, dt = Solver(model), scene.time_step
+    if observe is not None:
+        observe(0, model, state)
+    for k in range(steps):
+        solver.step(state, scratch, k * dt, dt)
+        state, scratch = scratch, state
+        if observe is not None and (k + 1) % every == 0 and observe(k + 1, model, state) is False:
+            break
+    return model, state, solver
+
+
+def cell_share(model) -> np.ndarray:
+    """Share of its lattice cell each owned particle stands for: ½ per boundary plane it lies on
+    (particles sit on the lattice, faces included, so a face particle holds half a cell)."""
+    share = np.ones(model.particle_count)
+    planes = model.constraint_planes.numpy().reshape(-1, 3)
+    share[model.constraint_particle.numpy()] = 0.5 ** np.sum(planes >= 0, axis=1)
+    return share
+
+
+def energy(model, state) -> float:
+    """Kinetic plus elastic strain energy [J per unit area (1D) or length (2D)] of the owned
+    particles, each weighted by its volume m/ρ and its :func:`cell_share`; the strain energy
+    density of the hypo-elastic stress is s:s/(4G) + (tr σ)²/(18K). A blown-up state gives inf or nan."""
+    n = model.particle_count
+    materials = list(model.scene.materials.values())
+    index = model.particle_material.numpy()[:n]
+    shear = np.array([m.shear_modulus for m in materials])[index]
+    bulk = np.array([m.bulk_modulus for m in materials])[index]
+    with np.errstate(all="ignore"):
+        mass = model.particle_mass.numpy()[:n].astype(np.float64) * cell_share(model)
+        volume = mass / state.particle_density.numpy()[:n]
+        v = state.particle_v.numpy()[:n].astype(np.float64)
+        s = state.particle_stress.numpy()[:n].astype(np.float64)
+        trace = np.trace(s, axis1=1, axis2=2)
+        dev = s - trace[:, None, None] / 3.0 * np.eye(3)
+        density = np.einsum("nij,nij->n", dev, dev) / (4.0 * shear) + trace**2 / (18.0 * bulk)
+        return float(0.5 * np.sum(mass * np.sum(v * v, axis=1)) + np.sum(volume * density))
+
+
+def largest_rise(series) -> float:
+    """Largest increase of a series over any earlier value of it, relative to its first value."""
+    e = np.asarray(series, dtype=float)
+    return float(np.max(e - np.minimum.accumulate(e)) / e[0])
+
+
+def closest_pair(points: np.ndarray) -> float:
+    """Smallest distance between two of the (N,3) ``points`` [m] (brute force, chunked)."""
+    best = np.inf
+    for start in range(0, len(points), 256):
+        with np.errstate(all="ignore"):
+            d = np.linalg.norm(points[start:start + 256, None, :] - points[None, :, :], axis=2)
+        rows = np.arange(d.shape[0])
+        d[rows, start + rows] = np.inf
+        best = min(best, float(d.min()))
+    return best

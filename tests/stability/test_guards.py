@@ -1,0 +1,97 @@
+"""Run guards (issue 6, item 9): a blow-up is caught within one step, both schemes.
+
+- **Courant 5** (the shipped wave column; validation accepts C ≤ 2, so the scene is changed after it
+  is validated and run through :class:`warpsph.runner.Run`): the run raises one
+  :class:`SimulationError` whose one-line message names the step, the time and the first bad particle
+  and what is wrong with it; the step is the first whose fields are non-finite (density included: it
+  overflows a step or two before the velocity), whose density is not positive (the collocated blow-up
+  freezes at finite values with negative densities) or too fast, found by replaying the run in
+  memory; the checkpoint and the frames on disk are from earlier steps and finite; run.json records
+  the failure.
+- **Velocity limit** through the command line (``simulation.velocity_limit`` below the 0.021 m/s the
+  5 kPa step gives the top): exit code 1, one line on stderr naming the step, the time, the particle
+  and the limit, at the first step beyond it.
+"""
+
+import json
+import subprocess
+import sys
+
+import numpy as np
+import pytest
+from stability_tools import SCENES, SCHEMES, march
+
+from warpsph.errors import SimulationError
+from warpsph.io import load_checkpoint, load_results
+from warpsph.runner import Run
+from warpsph.scene_toml import load_scene
+
+
+def wave_column(scheme: str):
+    scene = load_scene(SCENES / "wave_column.toml")
+    scene.simulation.scheme = scheme
+    return scene.validate()
+
+
+def first_bad_step(scene, limit: float, steps: int) -> int | None:
+    """Replay ``scene`` in memory: the first step after which a particle's position, velocity, stress or
+    density is not finite, its density is not positive or its speed exceeds ``limit`` [m/s]."""
+    found = []
+
+    def observe(k, model, state):
+        n = model.particle_count
+        fields = [state.particle_q.numpy()[:n], state.particle_v.numpy()[:n], state.particle_stress.numpy()[:n],
+                  state.particle_density.numpy()[:n]]
+        bad = (not all(np.all(np.isfinite(f)) for f in fields) or np.any(fields[3] <= 0.0)
+               or np.linalg.norm(fields[1], axis=1).max() > limit)  # fmt: skip
+        if bad and k > 0:
+            found.append(k)
+        return not bad
+
+    march(scene, steps, observe)
+    return found[0] if found else None
+
+
+def step_in(message: str) -> int:
+    return int(message.split("unstable at step ")[1].split(",")[0])
+
+
+@pytest.mark.parametrize("scheme", SCHEMES)
+def test_courant_5_stops_within_a_step_and_keeps_its_output(scheme, tmp_path):
+    scene = wave_column(scheme)
+    scene.simulation.courant = 5.0
+    scene.output.frame_interval = 2 * scene.time_step
+    with pytest.raises(SimulationError) as info:
+        Run(scene, tmp_path, end_time=500 * scene.time_step).run()
+    message = str(info.value)
+    print(f"\n{scheme}, C = 5: {message}")
+    step = step_in(message)
+    assert "\n" not in message and f"t = {step * scene.time_step:.6g} s" in message and "particle " in message
+    assert step == first_bad_step(scene, np.inf, step + 1)
+    checkpoint = load_checkpoint(tmp_path / "checkpoint.h5")
+    assert checkpoint.step < step and f"checkpoint (step {checkpoint.step})" in message
+    assert all(np.all(np.isfinite(a)) for a in checkpoint.arrays.values())
+    results = load_results(tmp_path / "results.h5")
+    assert len(results) >= 1 and results.steps[-1] < step
+    assert np.all(np.isfinite(results.frame(len(results) - 1)["stress"]))
+    record = json.loads((tmp_path / "run.json").read_text())
+    assert record["status"] == "failed" and record["message"] == message
+
+
+@pytest.mark.parametrize("scheme", SCHEMES)
+def test_velocity_limit_through_the_command_line(scheme, tmp_path):
+    limit = 0.015
+    text = (SCENES / "wave_column.toml").read_text().replace(
+        'scheme = "two_set"', f'scheme = "{scheme}"\nvelocity_limit = {limit}')
+    path = tmp_path / "limited.toml"
+    path.write_text(text)
+    result = subprocess.run([sys.executable, "-m", "warpsph", "run", str(path), "--out", str(tmp_path / "out"),
+                             "--no-progress", "--end-time", "0.05"], capture_output=True, text=True, timeout=600)
+    lines = result.stderr.strip().splitlines()
+    print(f"\n{scheme}: exit {result.returncode}: {result.stderr.strip()}")
+    assert result.returncode == 1 and len(lines) == 1 and "Traceback" not in result.stderr
+    assert f"beyond simulation.velocity_limit = {limit:g} m/s" in lines[0] and "particle " in lines[0]
+    scene = load_scene(path)
+    step = step_in(lines[0])
+    assert step == first_bad_step(scene, limit, step + 1)
+    assert load_checkpoint(tmp_path / "out" / "checkpoint.h5").step < step
