@@ -9,10 +9,11 @@ Closed form (c_v of the clay is 1e6 times smaller, its boundary layer √(c_v t)
 consolidates as a Terzaghi layer of H = 5 m on an impermeable base, the clay keeps p₀.
 
 Criteria: the CG solve converges within its cap (1000) at every step (the ``pressure_iterations`` and
-``pressure_residual`` series, and run.json); the pressure is continuous across the interface (the
-jump between the two particles straddling it is below 1 % of p₀, and p stays within [0, 1.01 p₀]);
-the clay holds p₀ within 2 % and the sand is within 1 % (L2) of its closed form — the last measured
-to fail (docs/stability.md).
+``pressure_residual`` series, and run.json); the pressure stays within [0, 1.01 p₀]; the clay holds
+p₀ within 2 %, the sand is within 1 % (L2) of its closed form and the jump between the two particles
+straddling the interface is the closed form's within 2 % of p₀ (the clay's boundary layer, 2 mm, is
+far below Δx, so at this resolution the continuous pressure is a jump from the sand's base value to
+p₀) — the clay and the jump measured to miss (docs/stability.md).
 """
 
 import json
@@ -77,27 +78,28 @@ def test_cg_converges_within_its_cap_every_step(layered):
     assert record["pressure_solve"]["missed_tolerance"] == 0
 
 
-def test_pressure_continuous_across_the_interface(layered):
+def test_pressure_stays_between_drained_and_undrained(layered):
     _, _, y, p, _ = layered
-    jumps = np.abs(np.diff(p))
-    across = np.argmax(y >= INTERFACE - 1e-9) - 1  # the jump between the clay's top and the sand's bottom
-    within = np.delete(jumps, across)
-    print(f"\njump across the interface {jumps[across] / P0:.2e} p₀, largest within the layers "
-          f"{within.max() / P0:.2e} p₀, p/p₀ in [{p.min() / P0:.4f}, {p.max() / P0:.4f}]")
-    assert jumps[across] < 0.01 * P0
+    print(f"\np/p₀ in [{p.min() / P0:.4f}, {p.max() / P0:.4f}]")
     assert p.min() >= 0.0 and p.max() <= 1.01 * P0
 
 
-@expected_failure("the clay's two rows within 2h of the sand drain to 0.76 and 0.68 p₀ and the sand is 3.5 % "
-                  "off (L2): the pressure Laplacian couples the layers with the mean of their k "
-                  "(measured, docs/stability.md)")
+@expected_failure("the clay's rows within 2h of the sand read 0.985 and 0.972 p₀ (2.8 % off; the sand is "
+                  "within 0.99 % L2) and the jump across the interface is −0.345 p₀ for −0.393: with the "
+                  "harmonic mean of k the Darcy leak is gone, what is left comes through the projection's "
+                  "Δt/ρ term (measured, docs/stability.md)")
 def test_layers_against_the_closed_form(layered):
     results, _, y, p, _ = layered
     tv = CV * results.times[-1] / (HEIGHT - INTERFACE) ** 2
     sand = y >= INTERFACE - 1e-9
     l2 = np.sqrt(np.mean((p[sand] - exact_pressure(HEIGHT - y[sand], HEIGHT - INTERFACE, P0, tv)) ** 2)) / P0
     clay = np.abs(p[~sand] / P0 - 1.0)
+    across = np.argmax(sand) - 1  # the jump between the clay's top and the sand's bottom
+    jump = p[across + 1] - p[across]
+    exact_jump = exact_pressure(HEIGHT - INTERFACE, HEIGHT - INTERFACE, P0, tv) - P0
     print(f"\nT_v = {tv:.3f}: sand L2 {l2:.2e} p₀, clay off p₀ by up to {clay.max():.3f} p₀ "
-          f"(rows {np.round(p[~sand][-3:] / P0, 3)} below the interface)")
+          f"(rows {np.round(p[~sand][-3:] / P0, 3)} below the interface), jump across it {jump / P0:.3f} p₀ "
+          f"(closed form {exact_jump / P0:.3f}: the clay's 2 mm boundary layer is far below Δx)")
     assert clay.max() < 0.02
     assert l2 < 0.01
+    assert abs(jump - exact_jump) < 0.02 * P0

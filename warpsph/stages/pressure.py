@@ -8,7 +8,8 @@ so that drained values and ghost parities enter as they are):
 
 then v = v* − (Δt/ρ) ∇(p − pⁿ). ∇·v* and ∇(p − pⁿ) follow the same real → virtual → real path as
 the effective stress (linear fits of :mod:`warpsph.sph.operators`); the Laplacian is the symmetric
-Morris form on real–real pairs, V_a V_b (κ_a + κ_b)(−x_ab·∇W_ab)/(r² + η²), η = 0.1h, scaled by a
+Morris form on real–real pairs, V_a V_b κ_ab (−x_ab·∇W_ab)/(r² + η²), η = 0.1h, with
+κ_ab = 4 k_a k_b/(k_a + k_b) + Δt/ρ_a + Δt/ρ_b (twice the harmonic mean of k), scaled by a
 constant that makes it exact for quadratics on the initial lattice (the plain form is biased there),
 so the system is symmetric positive definite: Jacobi-preconditioned CG or weighted Jacobi solve it.
 Dirichlet rows (drained planes, drained free surface) are eliminated; ghosts enter with the
@@ -267,7 +268,11 @@ def _kernels(spec: Spec):
             morris = -f64(wp.dot(r, grad_W(r, h))) / (f64(wp.dot(r, r)) + eta2) * scale
             vol_j = f64(mass[j] / density[j])
             mat_j = material[j]
-            w = vol_a * vol_j * (k_a + permeability[mat_j] + dt_rho_a + f64(dt) / f64(density[j])) * morris
+            k_j = permeability[mat_j]
+            k_pair = zero  # twice the harmonic mean: flux continuity across layers of contrasting k
+            if k_a + k_j > zero:
+                k_pair = f64(4.0) * k_a * k_j / (k_a + k_j)
+            w = vol_a * vol_j * (k_pair + dt_rho_a + f64(dt) / f64(density[j])) * morris
             w_dt = vol_a * vol_j * (dt_rho_a + f64(dt) / f64(density[j])) * morris
             d += w
             col = j
