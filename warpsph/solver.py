@@ -43,6 +43,7 @@ class Solver:
         s, dev = model.spec, model.device
         self.support = 2.0 * model.h
         self.surface_normal = wp.zeros(model.particle_count, dtype=s.vec3, device=dev)
+        self.projection: PressureProjection | None = None  # pore_water only (two-set)
         if s.scheme == "two_set":
             self._init_two_set()
         else:
