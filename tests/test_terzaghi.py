@@ -79,8 +79,10 @@ def consolidating_column(material, height, dx, sigma0, **pressure):
 def pressure_at(scene, times):
     """Excess pore pressure (= total, no gravity) of the owned particles at each of ``times`` [s]."""
     dt = scene.time_step
-    run = run_sampled(scene, [math.ceil(t / dt - 1e-12 / dt) for t in times],
-                      lambda model, state: state.particle_pore_pressure.numpy()[: model.particle_count].copy())  # fmt: skip
+    def excess_pressure(model, state):
+        return state.particle_pore_pressure.numpy()[: model.particle_count].copy()
+
+    run = run_sampled(scene, [math.ceil(t / dt - 1e-12 / dt) for t in times], excess_pressure)
     return run.model, list(zip(run.times, run.samples)), run.solver
 
 

@@ -101,7 +101,8 @@ def apply_overrides(document: dict, overrides: Mapping[str, object]) -> dict:
 def _entry_named(entries: list, section: str, name: str) -> dict:
     """The entry of the ``[[section]]`` array called ``name`` (unnamed entries are e.g. "body0")."""
     cls = typing.get_args(field_hints(Scene)[section])[0]
-    names = [t.get("name", f"{cls.__name__.lower()}{i}") if isinstance(t, dict) else None for i, t in enumerate(entries)]
+    default = cls.__name__.lower()
+    names = [t.get("name", f"{default}{i}") if isinstance(t, dict) else None for i, t in enumerate(entries)]
     if name not in names:
         known = ", ".join(f'"{n}"' for n in names if n is not None) or "none"
         raise SceneError(f"{section}.{name}", f"no entry named \"{name}\"; entries: {known}")

@@ -85,10 +85,16 @@ class SampledRun:
     samples: list
     steps: int
     """Steps taken."""
+    time_step: float
+    """Δt [s]."""
+    build_seconds: float
+    """Wall time of building the model and initial state on the host and the device [s]."""
     compile_seconds: float
     """Wall time of the warm-up step: kernel compilation or cache load, first launch [s]."""
     step_seconds: float
     """Wall time of the steps alone, sampling and run-guard checks excluded [s]."""
+    step_cpu_seconds: float
+    """CPU time of this process over the same steps [s]: on a busy machine, steadier than the wall time."""
 
     @property
     def particle_steps_per_second(self) -> float:
@@ -108,22 +114,25 @@ def run_sampled(scene, sample_steps: Iterable[int], extract: Callable, device: s
     from warpsph.solver import Solver
     from warpsph.stages.guard import Guard
 
+    start = time.perf_counter()
     model, state = build(scene, device=device)
+    build_seconds = time.perf_counter() - start
     scratch = model.state()
     scratch.assign(state)
     solver, guard, dt = Solver(model), Guard(model, scene.simulation.velocity_limit), scene.time_step
     compile_seconds = warm_up(solver, guard, state, scratch, 0.0, dt)
     wanted = set(sample_steps)
     stops = sorted(wanted | set(range(GUARD_EVERY, max(wanted, default=0), GUARD_EVERY)))
-    times, samples, step, step_seconds = [], [], 0, 0.0
+    times, samples, step, step_seconds, step_cpu_seconds = [], [], 0, 0.0, 0.0
     for stop in stops:
-        start = time.perf_counter()
+        start, start_cpu = time.perf_counter(), time.process_time()
         while step < stop:
             solver.step(state, scratch, step * dt, dt)
             state, scratch = scratch, state
             step += 1
         wp.synchronize_device(model.device)
         step_seconds += time.perf_counter() - start
+        step_cpu_seconds += time.process_time() - start_cpu
         bad = guard.first_bad(state)
         if bad is not None:
             raise SimulationError(f"unstable by step {step}, t = {step * dt:.6g} s: particle {bad} has a non-finite "
@@ -131,7 +140,8 @@ def run_sampled(scene, sample_steps: Iterable[int], extract: Callable, device: s
         if stop in wanted:
             times.append(step * dt)
             samples.append(extract(model, state))
-    return SampledRun(model, solver, times, samples, step, compile_seconds, step_seconds)
+    return SampledRun(model, solver, times, samples, step, dt, build_seconds, compile_seconds, step_seconds,
+                      step_cpu_seconds)
 
 
 def column_stress_profile(model, state) -> tuple[np.ndarray, np.ndarray]:
