@@ -11,11 +11,12 @@ import csv
 import json
 import math
 
+import matplotlib
 import numpy as np
 
 from warpsph.bench import markdown_table
 from warpsph.study.execute import StudyOutcome
-from warpsph.study.spec import COSTS, LADDER_KEY
+from warpsph.study.spec import COSTS, LADDER_KEY, scene_setting
 
 COST_COLUMNS = {"wall_seconds": "wall s", "cpu_seconds": "cpu s"}
 TIMING_COLUMNS = ("particles", "virtual_points", "steps", "time_step", "wall_seconds", "cpu_seconds", "compile_seconds",
@@ -40,7 +41,7 @@ def _error(record: dict, name: str) -> float:
 
 
 def _cost(record: dict, cost: str) -> float:
-    return float(record[cost]) if record["status"] == "finished" else math.nan
+    return float(record.get(cost, math.nan)) if record["status"] == "finished" else math.nan
 
 
 def fronts(outcome: StudyOutcome) -> dict[str, np.ndarray]:
@@ -134,7 +135,7 @@ def _write_markdown(outcome: StudyOutcome, masks: dict, path):
         row = [_show(r["settings"][k]) for k in axes]
         if r["status"] == "finished":
             row += [f"{r['errors'][e]:.3g}" for e in errors] + [f"{r['extras'].get(x, math.nan):.3g}" for x in extras]
-            row += [str(r["particles"]), str(r["steps"]), f"{r['wall_seconds']:.3g}", f"{r['cpu_seconds']:.3g}",
+            row += [str(r["particles"]), str(r["steps"]), f"{r['wall_seconds']:.3g}", f"{r.get('cpu_seconds', math.nan):.3g}",
                     f"{r['compile_seconds']:.2f}"]  # fmt: skip
             if solve:
                 s = r.get("pressure_solve", {})
@@ -167,27 +168,32 @@ def _write_markdown(outcome: StudyOutcome, masks: dict, path):
 
 
 def _plot(outcome: StudyOutcome, error: str, front: np.ndarray, path):
-    """Log-log error against stepping time; runs differing only in Δx joined by a line, the front
-    ringed and joined by a black step line."""
+    """Log-log error against cost; runs differing only in Δx joined by a line and labelled by what
+    differs from the base scene (with ``fixed``), the front ringed and joined by a dashed step line."""
     from matplotlib.figure import Figure
 
     study, records = outcome.study, outcome.records
     axes = varying_axes(outcome)
     names = short_names(axes)
     grouping = [k for k in axes if k != LADDER_KEY]
-    fig = Figure(figsize=(8, 5.5), layout="constrained")
-    ax = fig.subplots()
+    base_scene = study.scene(study.fixed)
+    base = {k: json.dumps(scene_setting(base_scene, k)) for k in grouping}
     series: dict[tuple, list[int]] = {}
     for i, r in enumerate(records):
         if r["status"] == "finished" and _error(r, error) > 0:
             series.setdefault(tuple(json.dumps(r["settings"][k]) for k in grouping), []).append(i)
+
     def point(i: int) -> tuple[float, float]:
         return _cost(records[i], study.cost), _error(records[i], error)
 
-    for key, members in series.items():
+    fig = Figure(figsize=(10, 5.5), layout="constrained")
+    ax = fig.subplots()
+    colours = [matplotlib.colormaps["tab10"](i % 10) for i in range(len(series))]
+    for n, (key, members) in enumerate(series.items()):
         members.sort(key=point)
-        label = ", ".join(f"{names[k]}={_show(json.loads(v))}" for k, v in zip(grouping, key)) or study.name
-        ax.plot(*zip(*map(point, members)), "o-", ms=4, label=label)
+        changed = [f"{names[k]} = {_show(json.loads(v))}" for k, v in zip(grouping, key) if v != base[k]]
+        ax.plot(*zip(*map(point, members)), marker="os^Dv<>p"[n // 10 % 8], ls="-" if n < 10 else "--", ms=4,
+                color=colours[n], label=", ".join(changed) or "scene settings")  # fmt: skip
         if LADDER_KEY in axes:
             for i in members:
                 ax.annotate(f"{records[i]['settings'][LADDER_KEY]:g}", point(i), textcoords="offset points",
@@ -195,15 +201,15 @@ def _plot(outcome: StudyOutcome, error: str, front: np.ndarray, path):
     on_front = sorted((i for i in np.flatnonzero(front) if _error(records[i], error) > 0), key=point)
     if on_front:
         x, y = zip(*map(point, on_front))
-        ax.step(x, y, where="post", color="k", lw=1, ls="--", label="Pareto front")
-        ax.plot(x, y, "o", ms=10, mfc="none", mec="k")
+        ax.step(x, y, where="post", color="k", lw=1, ls=":", label="Pareto front")
+        ax.plot(x, y, "o", ms=11, mfc="none", mec="k")
     ax.set_xscale("log")
     ax.set_yscale("log")
     ax.set_xlabel(f"{COSTS[study.cost]} [s] (compile time apart)")
     ax.set_ylabel(error)
-    ax.set_title(f"{study.name}: {error}" + (f" (labels: {names[LADDER_KEY]} [m])" if LADDER_KEY in axes else ""),
-                 fontsize=10)  # fmt: skip
+    ladder = f"; points labelled by {names[LADDER_KEY]} [m]" if LADDER_KEY in axes else ""
+    ax.set_title(f"{study.name}: {error} against cost{ladder}", fontsize=10)
     ax.grid(True, which="both", alpha=0.3)
-    ax.legend(fontsize=7, loc="best")
+    fig.legend(fontsize=7, loc="outside right upper", title="differs from the scene", title_fontsize=7)
     fig.savefig(path, dpi=110)
     return path
