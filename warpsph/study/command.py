@@ -35,6 +35,11 @@ def main(args) -> int:
         raise InputError(EXTRA_HINT)
     if args.workers is not None and args.workers < 0:
         raise InputError(f"--workers: must be >= 0, got {args.workers}")
+    if args.device.startswith("cuda") and not args.scheduler and not args.dry_run:
+        from warpsph.cli import _init_warp
+
+        if not _init_warp().is_cuda_available():
+            raise InputError(f"--device {args.device}: no CUDA device is available")
     from warpsph.study.execute import RunStore, run_studies
     from warpsph.study.report import write_reports
     from warpsph.study.spec import load_study
