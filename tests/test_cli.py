@@ -73,3 +73,12 @@ def test_blow_up_stops_with_message_and_keeps_output(scenes_dir, tmp_path):
     assert len(results) >= 1 and results.steps[-1] < step
     with h5py.File(tmp_path / "out" / "results.h5", "r") as f:
         assert f.attrs["format"] == "warpsph-results"
+
+
+def test_collocated_scene_runs(scenes_dir, tmp_path):
+    """The run loop on a collocated scene, whose solver has no pressure projection."""
+    from warpsph.runner import run_scene
+    from warpsph.scene_toml import load_scene
+
+    scene = load_scene(scenes_dir / "wave_column.toml", {"simulation.scheme": "collocated", "output.usd": False})
+    assert run_scene(scene, tmp_path, end_time=0.002).steps > 0

@@ -14,34 +14,15 @@ import math
 import numpy as np
 import pytest
 
-from warpsph.builder import build
 from warpsph.io import load_results
 from warpsph.runner import Run
 from warpsph.scene import (Body, Boundary, Drainage, Effects, Load, Material, PressureSolver, Scene,
                            Simulation)  # fmt: skip
 from warpsph.scene_toml import load_scene
-from warpsph.solver import Solver
+from warpsph.verification import (consolidation_constants, degree_of_consolidation, pressure_l2, run_sampled,
+                                  terzaghi_pressure)  # fmt: skip
 
 SIGMA0 = 5000.0
-
-
-def modes(terms=400):
-    return [math.pi * (2 * m + 1) / 2 for m in range(terms)]
-
-
-def exact_pressure(zeta, height, p0, tv):
-    return sum(2 * p0 / M * np.sin(M * zeta / height) * math.exp(-M * M * tv) for M in modes())
-
-
-def degree_of_consolidation(tv):
-    return 1.0 - sum(2.0 / M**2 * math.exp(-M * M * tv) for M in modes())
-
-
-def constants(material, height, sigma0):
-    e_oed, q = material.oedometric_modulus, material.biot_modulus
-    p0 = sigma0 * q / (q + e_oed)
-    cv = material.hydraulic_conductivity / (material.water_density * 9.81 * (1 / e_oed + 1 / q))
-    return p0, cv, height * sigma0 / (e_oed + q), height * sigma0 / e_oed
 
 
 def test_closed_form_check_values():
@@ -49,7 +30,7 @@ def test_closed_form_check_values():
     for tv, u in [(0.05, 0.2523), (0.1, 0.3568), (0.197, 0.5003), (0.5, 0.7640), (0.848, 0.9000), (1.0, 0.9313)]:
         assert degree_of_consolidation(tv) == pytest.approx(u, abs=1e-4)
     zeta = np.array([0.2, 0.4, 0.6, 0.8, 1.0])
-    assert exact_pressure(zeta, 1.0, 1.0, 0.1) == pytest.approx([0.3452, 0.6286, 0.8185, 0.9191, 0.9493], abs=1e-4)
+    assert terzaghi_pressure(zeta, 1.0, 1.0, 0.1) == pytest.approx([0.3452, 0.6286, 0.8185, 0.9191, 0.9493], abs=1e-4)
 
 
 def test_parameter_set_a(scenes_dir, tmp_path):
@@ -57,7 +38,7 @@ def test_parameter_set_a(scenes_dir, tmp_path):
     scene = load_scene(scenes_dir / "terzaghi.toml")
     scene.output.usd = False
     material, height = scene.materials["soil"], 10.0
-    p0, cv, s0, s_inf = constants(material, height, SIGMA0)
+    p0, cv, s0, s_inf = consolidation_constants(material, height, SIGMA0)
     assert cv == pytest.approx(3.089, abs=1e-3) and p0 / SIGMA0 == pytest.approx(0.9091, abs=1e-4)
     Run(scene, tmp_path).run()
     results = load_results(tmp_path / "results.h5")
@@ -69,7 +50,7 @@ def test_parameter_set_a(scenes_dir, tmp_path):
         assert abs(tv - target) < 1e-3
         frame = results.frame(i)
         p = frame["pore_pressure"]
-        l2 = np.sqrt(np.mean((p - exact_pressure(height - x0[:, 1], height, p0, tv)) ** 2)) / p0
+        l2 = pressure_l2(p, height - x0[:, 1], height, p0, tv)
         settlement = s0 - frame["displacement"][np.argmax(x0[:, 1]), 1]
         u_settlement = (settlement - s0) / (s_inf - s0)
         u_pressure = 1.0 - np.mean(p) / p0
@@ -97,17 +78,12 @@ def consolidating_column(material, height, dx, sigma0, **pressure):
 
 def pressure_at(scene, times):
     """Excess pore pressure (= total, no gravity) of the owned particles at each of ``times`` [s]."""
-    model, state = build(scene)
-    scratch = model.state()
-    scratch.assign(state)
-    solver, dt, step, out = Solver(model), scene.time_step, 0, []
-    for t in times:
-        while step * dt < t - 1e-12:
-            solver.step(state, scratch, step * dt, dt)
-            state, scratch = scratch, state
-            step += 1
-        out.append((step * dt, state.particle_pore_pressure.numpy()[: model.particle_count].copy()))
-    return model, out, solver
+    dt = scene.time_step
+    def excess_pressure(model, state):
+        return state.particle_pore_pressure.numpy()[: model.particle_count].copy()
+
+    run = run_sampled(scene, [math.ceil(t / dt - 1e-12 / dt) for t in times], excess_pressure)
+    return run.model, list(zip(run.times, run.samples)), run.solver
 
 
 def test_parameter_set_b():
@@ -118,12 +94,12 @@ def test_parameter_set_b():
     material = Material("soil", density=1700.0, youngs_modulus=2e6, poisson_ratio=0.3, porosity=0.3,
                         grain_density=2000.0, water_bulk_modulus=200e6, hydraulic_conductivity=1e-3)  # fmt: skip
     scene = consolidating_column(material, height, 0.01, sigma0, solver="cg", tolerance=1e-10)
-    p0, cv, _, _ = constants(material, height, sigma0)
+    p0, cv, _, _ = consolidation_constants(material, height, sigma0)
     model, samples, solver = pressure_at(scene, [0.1 * height**2 / cv, 0.3 * height**2 / cv])
     zeta = height - model.particle_x0[:, 1]
     for t, p in samples:
         tv = cv * t / height**2
-        l2 = np.sqrt(np.mean((p - exact_pressure(zeta, height, p0, tv)) ** 2)) / p0
+        l2 = pressure_l2(p, zeta, height, p0, tv)
         print(f"\nset B, T_v = {tv:.3f}: L2/p0 = {l2:.2e}")
         assert l2 < 0.01
     its = solver.projection.iterations
@@ -145,11 +121,11 @@ def test_jacobi_and_cg_agree():
     results = {}
     for solver in ("jacobi", "cg"):
         material, scene = set_a_column(0.2, solver, 1e-8)
-        p0, cv, _, _ = constants(material, 10.0, SIGMA0)
+        p0, cv, _, _ = consolidation_constants(material, 10.0, SIGMA0)
         model, samples, sol = pressure_at(scene, [0.1 * 100.0 / cv])
         (t, p), = samples
         zeta = 10.0 - model.particle_x0[:, 1]
-        l2 = np.sqrt(np.mean((p - exact_pressure(zeta, 10.0, p0, cv * t / 100.0)) ** 2)) / p0
+        l2 = pressure_l2(p, zeta, 10.0, p0, cv * t / 100.0)
         its = sol.projection.iterations
         print(f"\n{solver}: L2/p0 {l2:.2e}, iterations per step mean {np.mean(its):.1f} max {max(its)}")
         assert l2 < 0.01 and sol.projection.failures == 0
@@ -164,11 +140,11 @@ def test_convergence_under_refinement():
     rows = []
     for dx in (0.4, 0.2, 0.1, 0.05):
         material, scene = set_a_column(dx, "cg", 1e-11)
-        p0, cv, _, _ = constants(material, 10.0, SIGMA0)
+        p0, cv, _, _ = consolidation_constants(material, 10.0, SIGMA0)
         model, samples, _ = pressure_at(scene, [0.1 * 100.0 / cv])
         (t, p), = samples
         zeta = 10.0 - model.particle_x0[:, 1]
-        rows.append((dx, np.sqrt(np.mean((p - exact_pressure(zeta, 10.0, p0, cv * t / 100.0)) ** 2)) / p0))
+        rows.append((dx, pressure_l2(p, zeta, 10.0, p0, cv * t / 100.0)))
     print("\n   dx     L2/p0    order")
     for i, (dx, e) in enumerate(rows):
         order = math.log(rows[i - 1][1] / e) / math.log(rows[i - 1][0] / dx) if i else float("nan")

@@ -1,4 +1,4 @@
-"""Command line: ``warpsph run SCENE`` and ``warpsph validate SCENE``.
+"""Command line: ``warpsph run SCENE``, ``warpsph validate SCENE`` and ``warpsph study STUDY``.
 
 Exit codes: 0 success, 1 the run went unstable (its output up to then is kept), 2 a bad scene or
 bad arguments (one line on stderr, never a traceback).
@@ -11,6 +11,7 @@ import sys
 from pathlib import Path
 
 from warpsph.errors import InputError, SceneError, SimulationError, one_line
+from warpsph.study import command as study_command
 
 EXIT_UNSTABLE, EXIT_BAD_INPUT = 1, 2
 
@@ -31,6 +32,7 @@ def _parser() -> argparse.ArgumentParser:
     run.add_argument("--no-progress", action="store_true", help="no progress bar")
     val = sub.add_parser("validate", help="check a scene without running it")
     val.add_argument("scene", type=Path, help="scene file (TOML)")
+    study_command.add_parser(sub)
     return p
 
 
@@ -109,7 +111,7 @@ def _run(args) -> int:
 def main(argv: list[str] | None = None) -> int:
     args = _parser().parse_args(argv)
     try:
-        return _validate(args) if args.command == "validate" else _run(args)
+        return {"validate": _validate, "run": _run, "study": study_command.main}[args.command](args)
     except SceneError as e:
         return _fail(EXIT_BAD_INPUT, f"{getattr(args, 'scene', '')}: {e}")
     except (FileNotFoundError, InputError) as e:

@@ -76,6 +76,22 @@ def host_fields(model: Model, state: State) -> dict[str, np.ndarray]:
     return fields
 
 
+def warm_up(solver: Solver, guard: Guard, state: State, scratch: State, t: float, dt: float) -> float:
+    """Compile every kernel by one throw-away step from ``state`` into ``scratch`` (which is reset
+    to ``state`` afterwards) and clear the solver's statistics; return its wall time [s]."""
+    start = time.perf_counter()
+    with warnings.catch_warnings():  # the throw-away step reports nothing
+        warnings.simplefilter("ignore")
+        solver.step(state, scratch, t, dt)
+    guard.first_bad(scratch)
+    wp.synchronize_device(solver.model.device)
+    scratch.assign(state)
+    solver.stage_seconds.clear()
+    if solver.projection is not None:
+        solver.projection.reset_statistics()
+    return time.perf_counter() - start
+
+
 class Run:
     """One simulation run of ``scene`` into ``out_dir`` (see module docstring)."""
 
@@ -204,18 +220,7 @@ class Run:
 
     # -- the loop ---------------------------------------------------------------------------------
     def _warm_up(self) -> None:
-        """Compile every kernel by one throw-away step into the scratch state."""
-        start = time.perf_counter()
-        with warnings.catch_warnings():  # the throw-away step reports nothing
-            warnings.simplefilter("ignore")
-            self.solver.step(self.state, self.scratch, self.time, self.dt)
-        self.guard.first_bad(self.scratch)
-        wp.synchronize_device(self.model.device)
-        self.scratch.assign(self.state)
-        self.summary.compile_seconds = time.perf_counter() - start
-        self.solver.stage_seconds.clear()
-        if self.solver.projection is not None:
-            self.solver.projection.reset_statistics()
+        self.summary.compile_seconds = warm_up(self.solver, self.guard, self.state, self.scratch, self.time, self.dt)
 
     def _check(self) -> None:
         bad = self.guard.first_bad(self.state)

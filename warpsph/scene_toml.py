@@ -16,6 +16,7 @@ from __future__ import annotations
 import dataclasses
 import tomllib
 import typing
+from collections.abc import Mapping
 from pathlib import Path
 
 from warpsph.errors import SceneError
@@ -33,27 +34,32 @@ from warpsph.validation import (
 )
 
 
-def load_scene(path: str | Path) -> Scene:
+def load_scene(path: str | Path, overrides: Mapping[str, object] | None = None) -> Scene:
     """Read, parse and validate the scene file ``path``; the scene is named after the file's stem
-    unless the file sets ``name``."""
+    unless the file sets ``name``. ``overrides`` as for :func:`parse_scene`."""
     path = Path(path)
     try:
         text = path.read_text(encoding="utf-8")
     except (OSError, UnicodeDecodeError) as exc:
         reason = exc.strerror if isinstance(exc, OSError) and exc.strerror else str(exc)
         raise SceneError("", f"cannot read scene file {path}: {reason}") from None
-    return parse_scene(text, name=path.stem)
+    return parse_scene(text, name=path.stem, overrides=overrides)
 
 
-def parse_scene(text: str, name: str = "scene") -> Scene:
+def parse_scene(text: str, name: str = "scene", overrides: Mapping[str, object] | None = None) -> Scene:
     """Parse and validate the TOML scene ``text``; ``name`` applies unless the text sets ``name``.
 
-    The returned scene keeps ``text`` as its ``source_text``.
+    ``overrides`` maps dotted keys to values set before parsing, as if the file held them
+    (:func:`apply_overrides`), so they go through the same checks and errors name the same keys.
+    The returned scene keeps ``text`` as its ``source_text``, with the overrides appended as comments.
     """
     try:
         document = tomllib.loads(text)
     except tomllib.TOMLDecodeError as exc:
         raise SceneError("", f"TOML syntax error: {' '.join(str(exc).split())}") from None
+    if overrides:
+        apply_overrides(document, overrides)
+        text += "".join(f"\n# override: {key} = {value!r}" for key, value in overrides.items()) + "\n"
     scene = _from_table(Scene, "", document, exclude=("source_text",))
     _set_mixture_densities(scene, document)
     if "name" not in document:
@@ -61,6 +67,46 @@ def parse_scene(text: str, name: str = "scene") -> Scene:
     scene.source_text = text
     validate_scene(scene)
     return scene
+
+
+def apply_overrides(document: dict, overrides: Mapping[str, object]) -> dict:
+    """Set each dotted key of ``overrides`` in the parsed TOML ``document`` (in place; returned).
+
+    Keys are the key paths of docs/scenes.md: ``simulation.dx``, ``pressure.tolerance``,
+    ``materials.soil.youngs_modulus``; entries of ``[[bodies]]``, ``[[boundaries]]``, ``[[loads]]``
+    and ``[[probes]]`` are picked by name (``loads.top.traction``). Missing tables are created; an
+    entry that does not exist raises :class:`SceneError` naming the key.
+    """
+    arrays = {n for n, hint in field_hints(Scene).items() if typing.get_origin(hint) is list}
+    for key, value in overrides.items():
+        parts = key.split(".")
+        if not all(parts):
+            raise SceneError(key, "expected a dotted key path such as simulation.dx")
+        node = document
+        for depth, part in enumerate(parts[:-1]):
+            if isinstance(node, list):
+                node = _entry_named(node, ".".join(parts[:depth]), part)
+            elif isinstance(node, dict):
+                node = node.setdefault(part, [] if depth == 0 and part in arrays else {})
+            else:
+                raise SceneError(".".join(parts[:depth]), f"not a table, so {key} cannot be set")
+        if isinstance(node, list):
+            raise SceneError(key, f"name a key inside an entry, e.g. {key}.<key>")
+        if not isinstance(node, dict):
+            raise SceneError(".".join(parts[:-1]), f"not a table, so {key} cannot be set")
+        node[parts[-1]] = value
+    return document
+
+
+def _entry_named(entries: list, section: str, name: str) -> dict:
+    """The entry of the ``[[section]]`` array called ``name`` (unnamed entries are e.g. "body0")."""
+    cls = typing.get_args(field_hints(Scene)[section])[0]
+    default = cls.__name__.lower()
+    names = [t.get("name", f"{default}{i}") if isinstance(t, dict) else None for i, t in enumerate(entries)]
+    if name not in names:
+        known = ", ".join(f'"{n}"' for n in names if n is not None) or "none"
+        raise SceneError(f"{section}.{name}", f"no entry named \"{name}\"; entries: {known}")
+    return entries[names.index(name)]
 
 
 def _set_mixture_densities(scene: Scene, document: dict) -> None:

@@ -43,6 +43,7 @@ class Solver:
         s, dev = model.spec, model.device
         self.support = 2.0 * model.h
         self.surface_normal = wp.zeros(model.particle_count, dtype=s.vec3, device=dev)
+        self.projection: PressureProjection | None = None  # pore_water only (two-set)
         if s.scheme == "two_set":
             self._init_two_set()
         else:
@@ -66,7 +67,6 @@ class Solver:
             Stage("taylor_full_step", self._full_step),
             Stage("prescribed_values", self._prescribe),
         ]
-        self.projection = None
         self.virtual_p = None
         if s.effects.pore_water:
             self.virtual_p = wp.zeros(m.virtual_total, dtype=wp.float64, device=dev)

@@ -4,13 +4,27 @@ Step-loaded elastic column (top at y = H loaded at t = 0 by a compressive tracti
 c): before the front reaches the base, −σ_yy/σ₀ = 1 for H − y < c t, 0 below. A step is smeared by
 any discretisation, so the front speed is measured from the loaded length d(t) = ∫(−σ_yy/σ₀) dy,
 which grows at exactly c, and the plateau as a window mean behind the front.
+
+Terzaghi consolidation (column of height H, drained top, impermeable base, step load σ₀ from the
+undrained state): p(ζ,t) = Σ (2p₀/M) sin(Mζ/H) exp(−M² T_v), M = π(2m+1)/2, T_v = c_v t/H², ζ the
+depth below the drained top; U(T_v) = 1 − Σ (2/M²) exp(−M² T_v).
+
+:func:`run_sampled` steps a scene in memory and samples it at chosen steps, timing the stepping
+apart from compilation and sampling; the accuracy studies (:mod:`warpsph.study`) measure with it.
 """
 
 from __future__ import annotations
 
+import math
+import time
+from collections.abc import Callable, Iterable
 from dataclasses import dataclass
+from typing import Any, NamedTuple
 
 import numpy as np
+
+GUARD_EVERY = 500
+"""Steps between run-guard checks of :func:`run_sampled` (besides every sample)."""
 
 
 @dataclass
@@ -60,27 +74,136 @@ def step_wave_metrics(times, profiles, *, height: float, speed: float, sigma0: f
     return WaveMetrics(front_speed, plateau, overshoot, l2)
 
 
-def sample_column_stress(scene, t_end: float, n_frames: int = 12, device: str = "cpu"):
-    """Run ``scene`` to ``t_end`` [s] in memory and return (times, [(y, σ_yy)] profiles) at about
-    ``n_frames`` evenly spaced steps, for :func:`step_wave_metrics`."""
-    from warpsph.builder import build
-    from warpsph.solver import Solver
+@dataclass
+class SampledRun:
+    """States sampled from an in-memory run (:func:`run_sampled`) and what the stepping cost."""
 
+    model: Any
+    solver: Any
+    times: list[float]
+    """Simulated times of the samples [s]."""
+    samples: list
+    steps: int
+    """Steps taken."""
+    time_step: float
+    """Δt [s]."""
+    build_seconds: float
+    """Wall time of building the model and initial state on the host and the device [s]."""
+    compile_seconds: float
+    """Wall time of the warm-up step: kernel compilation or cache load, first launch [s]."""
+    step_seconds: float
+    """Wall time of the steps alone, sampling and run-guard checks excluded [s]."""
+    step_cpu_seconds: float
+    """CPU time of this process over the same steps [s]: on a busy machine, steadier than the wall time."""
+
+    @property
+    def particle_steps_per_second(self) -> float:
+        return self.model.particle_count * self.steps / self.step_seconds if self.step_seconds > 0 else 0.0
+
+
+def run_sampled(scene, sample_steps: Iterable[int], extract: Callable, device: str = "cpu") -> SampledRun:
+    """Build ``scene`` on ``device``, compile by one throw-away step (timed apart), step to the
+    largest of ``sample_steps`` and keep ``extract(model, state)`` after each of them. Raises
+    :class:`~warpsph.errors.SimulationError` when the run guard finds a non-finite field or a speed
+    beyond ``simulation.velocity_limit`` (checked at every sample and every ``GUARD_EVERY`` steps)."""
+    import warp as wp
+
+    from warpsph.builder import build
+    from warpsph.errors import SimulationError
+    from warpsph.runner import warm_up
+    from warpsph.solver import Solver
+    from warpsph.stages.guard import Guard
+
+    start = time.perf_counter()
     model, state = build(scene, device=device)
+    build_seconds = time.perf_counter() - start
     scratch = model.state()
     scratch.assign(state)
-    solver = Solver(model)
-    dt = scene.time_step
-    n_end = int(np.ceil(t_end / dt - 1e-9))
-    every = max(1, n_end // n_frames)
+    solver, guard, dt = Solver(model), Guard(model, scene.simulation.velocity_limit), scene.time_step
+    compile_seconds = warm_up(solver, guard, state, scratch, 0.0, dt)
+    wanted = set(sample_steps)
+    stops = sorted(wanted | set(range(GUARD_EVERY, max(wanted, default=0), GUARD_EVERY)))
+    times, samples, step, step_seconds, step_cpu_seconds = [], [], 0, 0.0, 0.0
+    for stop in stops:
+        start, start_cpu = time.perf_counter(), time.process_time()
+        while step < stop:
+            solver.step(state, scratch, step * dt, dt)
+            state, scratch = scratch, state
+            step += 1
+        wp.synchronize_device(model.device)
+        step_seconds += time.perf_counter() - start
+        step_cpu_seconds += time.process_time() - start_cpu
+        bad = guard.first_bad(state)
+        if bad is not None:
+            raise SimulationError(f"unstable by step {step}, t = {step * dt:.6g} s: particle {bad} has a non-finite "
+                                  f"field or a speed beyond {scene.simulation.velocity_limit:g} m/s")  # fmt: skip
+        if stop in wanted:
+            times.append(step * dt)
+            samples.append(extract(model, state))
+    return SampledRun(model, solver, times, samples, step, dt, build_seconds, compile_seconds, step_seconds,
+                      step_cpu_seconds)
+
+
+def column_stress_profile(model, state) -> tuple[np.ndarray, np.ndarray]:
+    """(heights y [m], σ_yy [Pa]) of the owned particles of ``state``, by :func:`column_profile`."""
     n = model.particle_count
-    times, profiles = [], []
-    for k in range(n_end):
-        solver.step(state, scratch, k * dt, dt)
-        state, scratch = scratch, state
-        if (k + 1) % every == 0:
-            q = state.particle_q.numpy()[:n].astype(np.float64)
-            s = state.particle_stress.numpy()[:n, 1, 1].astype(np.float64)
-            times.append((k + 1) * dt)
-            profiles.append(column_profile(q, s, scene.simulation.dx))
-    return times, profiles
+    q = state.particle_q.numpy()[:n].astype(np.float64)
+    s = state.particle_stress.numpy()[:n, 1, 1].astype(np.float64)
+    return column_profile(q, s, model.dx)
+
+
+def column_stress_run(scene, t_end: float, n_frames: int = 12, device: str = "cpu") -> SampledRun:
+    """Run ``scene`` to ``t_end`` [s] in memory, sampling :func:`column_stress_profile` at about
+    ``n_frames`` evenly spaced steps, for :func:`step_wave_metrics`."""
+    n_end = int(np.ceil(t_end / scene.time_step - 1e-9))
+    every = max(1, n_end // n_frames)
+    return run_sampled(scene, range(every, n_end + 1, every), column_stress_profile, device=device)
+
+
+def sample_column_stress(scene, t_end: float, n_frames: int = 12, device: str = "cpu"):
+    """(times, [(y, σ_yy)] profiles) of :func:`column_stress_run`."""
+    run = column_stress_run(scene, t_end, n_frames, device)
+    return run.times, run.samples
+
+
+# -------------------------------------------------------------------------- Terzaghi consolidation
+
+
+class Consolidation(NamedTuple):
+    """Terzaghi constants of a saturated column of height H under a step load σ₀."""
+
+    p0: float
+    """Initial excess pore pressure σ₀ Q/(Q + E_oed) [Pa]."""
+    cv: float
+    """Coefficient of consolidation k_h/(ρ_w g (1/E_oed + 1/Q)) [m²/s], g = 9.81 m/s²."""
+    s0: float
+    """Undrained settlement Hσ₀/(E_oed + Q) [m]."""
+    s_inf: float
+    """Final settlement Hσ₀/E_oed [m]."""
+
+
+def consolidation_constants(material, height: float, sigma0: float) -> Consolidation:
+    """:class:`Consolidation` of ``material`` (a :class:`warpsph.scene.Material`), height [m], σ₀ [Pa]."""
+    e_oed, q = material.oedometric_modulus, material.biot_modulus
+    cv = material.hydraulic_conductivity / (material.water_density * 9.81 * (1 / e_oed + 1 / q))
+    return Consolidation(sigma0 * q / (q + e_oed), cv, height * sigma0 / (e_oed + q), height * sigma0 / e_oed)
+
+
+def _modes(terms: int) -> list[float]:
+    return [math.pi * (2 * m + 1) / 2 for m in range(terms)]
+
+
+def terzaghi_pressure(zeta, height: float, p0: float, tv: float, terms: int = 400):
+    """Excess pore pressure [Pa] at depths ``zeta`` [m] below the drained top, time factor ``tv``."""
+    return sum(2 * p0 / M * np.sin(M * np.asarray(zeta) / height) * math.exp(-M * M * tv) for M in _modes(terms))
+
+
+def degree_of_consolidation(tv: float, terms: int = 400) -> float:
+    """U(T_v) = 1 − Σ (2/M²) exp(−M² T_v)."""
+    return 1.0 - sum(2.0 / M**2 * math.exp(-M * M * tv) for M in _modes(terms))
+
+
+def pressure_l2(pressure, zeta, height: float, p0: float, tv: float) -> float:
+    """RMS over the particles of the pore pressure [Pa] minus :func:`terzaghi_pressure`, over p₀."""
+    exact = terzaghi_pressure(zeta, height, p0, tv)
+    return float(np.sqrt(np.mean((np.asarray(pressure) - exact) ** 2)) / p0)
