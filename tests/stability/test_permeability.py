@@ -21,11 +21,12 @@ import json
 import numpy as np
 import pytest
 from stability_tools import expected_failure
-from test_terzaghi import SIGMA0, constants, exact_pressure
+from test_terzaghi import SIGMA0
 
 from warpsph.io import load_results
 from warpsph.runner import Run
 from warpsph.scene import Body, Boundary, Drainage, Effects, Load, Material, Output, PressureSolver, Scene, Simulation
+from warpsph.verification import consolidation_constants, terzaghi_pressure
 
 HEIGHT, INTERFACE, DX = 10.0, 5.0, 0.2
 TIME_FACTOR = 0.3
@@ -37,7 +38,7 @@ def layer(name: str, conductivity: float) -> Material:
 
 
 SAND, CLAY = layer("sand", 1e-3), layer("clay", 1e-9)
-P0, CV, _, _ = constants(SAND, HEIGHT - INTERFACE, SIGMA0)
+P0, CV, _, _ = consolidation_constants(SAND, HEIGHT - INTERFACE, SIGMA0)
 
 
 @pytest.fixture(scope="module")
@@ -92,11 +93,11 @@ def test_layers_against_the_closed_form(layered):
     results, _, y, p, _ = layered
     tv = CV * results.times[-1] / (HEIGHT - INTERFACE) ** 2
     sand = y >= INTERFACE - 1e-9
-    l2 = np.sqrt(np.mean((p[sand] - exact_pressure(HEIGHT - y[sand], HEIGHT - INTERFACE, P0, tv)) ** 2)) / P0
+    l2 = np.sqrt(np.mean((p[sand] - terzaghi_pressure(HEIGHT - y[sand], HEIGHT - INTERFACE, P0, tv)) ** 2)) / P0
     clay = np.abs(p[~sand] / P0 - 1.0)
     across = np.argmax(sand) - 1  # the jump between the clay's top and the sand's bottom
     jump = p[across + 1] - p[across]
-    exact_jump = exact_pressure(HEIGHT - INTERFACE, HEIGHT - INTERFACE, P0, tv) - P0
+    exact_jump = terzaghi_pressure(HEIGHT - INTERFACE, HEIGHT - INTERFACE, P0, tv) - P0
     print(f"\nT_v = {tv:.3f}: sand L2 {l2:.2e} p₀, clay off p₀ by up to {clay.max():.3f} p₀ "
           f"(rows {np.round(p[~sand][-3:] / P0, 3)} below the interface), jump across it {jump / P0:.3f} p₀ "
           f"(closed form {exact_jump / P0:.3f}: the clay's 2 mm boundary layer is far below Δx)")

@@ -10,7 +10,9 @@ the issue's criterion; measured about a fifth of it at Δx = 0.2 m. Δx = 0.2 m 
 
 import numpy as np
 import pytest
-from test_terzaghi import SIGMA0, constants, exact_pressure, pressure_at, set_a_column
+from test_terzaghi import SIGMA0, pressure_at, set_a_column
+
+from warpsph.verification import consolidation_constants, terzaghi_pressure
 
 HEIGHT = 10.0
 
@@ -21,12 +23,12 @@ def test_float32_difference_below_the_discretisation_error(dx):
     for precision in ("float64", "float32"):
         material, scene = set_a_column(dx, "cg", 1e-10)
         scene.simulation.precision = precision
-        p0, cv, _, _ = constants(material, HEIGHT, SIGMA0)
+        p0, cv, _, _ = consolidation_constants(material, HEIGHT, SIGMA0)
         model, ((t, p),), solver = pressure_at(scene, [0.1 * HEIGHT**2 / cv])
         assert solver.projection.failures == 0
         pressures[precision] = p
     zeta = HEIGHT - model.particle_x0[:, 1]
-    exact = exact_pressure(zeta, HEIGHT, p0, cv * t / HEIGHT**2)
+    exact = terzaghi_pressure(zeta, HEIGHT, p0, cv * t / HEIGHT**2)
     discretisation = np.sqrt(np.mean((pressures["float64"] - exact) ** 2)) / p0
     difference = np.sqrt(np.mean((pressures["float32"] - pressures["float64"]) ** 2)) / p0
     print(f"\nTerzaghi set A, Δx = {dx} m, T_v = 0.1: float64 L2 error {discretisation:.2e} p₀, float32 - float64 "
