@@ -31,8 +31,8 @@ def field_values(name: str, fields: dict[str, np.ndarray], x0: np.ndarray) -> np
         return mean_stress(fields["stress"])
     if name == "von_mises":
         return von_mises(fields["stress"])
-    if name == "pore_pressure":
-        return fields["pore_pressure"]
+    if name in ("pore_pressure", "plastic_strain"):
+        return fields[name]
     raise ValueError(f"unknown probe field {name!r}")
 
 
