@@ -97,6 +97,21 @@ def test_relaxation_at_rest_follows_the_exponential(rate_dt):
     assert speed < 1e-9
 
 
+def test_softening_stops_at_the_residual_cohesion():
+    """With H < 0 (here √3H = −0.9·3G, steep but 3G + √3H > 0) the relaxing column softens until
+    c(ε̄) = max(c + Hε̄, c_r) reaches c_r and then relaxes onto σ_eq = √3 c_r."""
+    stress = (-10e3, -30e3, -10e3, 0.0, 0.0, 0.0)
+    top = Boundary(name="top", kind="fixed", axis="y", position=1.0, side="max")
+    residual = 0.5 * COHESION
+    material = soil(fluidity=100.0, reference_stress=10e3, hardening_modulus=-6e6, residual_cohesion=residual)
+    *_, (t, model, state) = advance(column(material, top, dx=0.1, stress=stress), 60, every=60)
+    n = model.particle_count
+    sigma_eq = von_mises(state.particle_stress.numpy()[:n])
+    eps = state.particle_plastic_strain.numpy()[:n]
+    assert np.allclose(sigma_eq, math.sqrt(3.0) * residual, rtol=1e-3)
+    assert np.all(eps > (COHESION - residual) / 6e6)  # beyond the strain where the floor is reached
+
+
 def test_confined_compression_plateaus_at_the_yield_stress():
     speed, ramp, end = 0.012, 0.05, 0.4  # top at 0.012 m/s after a 0.05 s ramp: |ε̇| = 0.012 /s
     fluidity = 10.0
