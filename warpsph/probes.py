@@ -88,8 +88,8 @@ class Probes:
             if p.kind == "reaction":
                 traction = total_stress(fields)[sel] @ normal
                 area = factor * self._mass[sel] / fields["density"][sel] / self.model.dx
-                out[p.name] = float(np.sum(traction[:, _COMPONENT[p.field]] * area))
+                out[p.name] = p.scale * float(np.sum(traction[:, _COMPONENT[p.field]] * area))
             else:
                 values = field_values(p.field, {k: v[sel] for k, v in fields.items()}, x0[sel])
-                out[p.name] = float(np.mean(values)) if len(values) else float("nan")
+                out[p.name] = p.scale * float(np.mean(values)) if len(values) else float("nan")
         return out

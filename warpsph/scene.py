@@ -325,7 +325,9 @@ class Probe:
     (2D) or force (3D) [N/m or N] that the boundary or load named ``boundary`` exerts on the body,
     component ``field`` ("x", "y" or "z").
     Fields: velocity_x|y|z [m/s], displacement_x|y|z [m], stress_xx|yy|zz|yz|xz|xy [Pa],
-    mean_stress [Pa], von_mises [Pa], pore_pressure [Pa] (total; pore_water only).
+    mean_stress [Pa], von_mises [Pa], pore_pressure [Pa] (total; pore_water only), plastic_strain
+    [-] (plasticity only). The written value is the probe's value times ``scale`` (e.g. a reaction
+    over a loaded width gives a mean pressure, or −1 turns tension-positive into compression-positive).
     """
 
     name: str = "probe"
@@ -334,6 +336,7 @@ class Probe:
     point: tuple[float, float, float] = (0.0, 0.0, 0.0)
     region: Region | None = None
     boundary: str = ""
+    scale: float = 1.0
 
 
 @dataclass
