@@ -97,6 +97,36 @@ def test_relaxation_at_rest_follows_the_exponential(rate_dt):
     assert speed < 1e-9
 
 
+@pytest.mark.parametrize("yield_function", ["drucker_prager", "mohr_coulomb"])
+def test_frictional_surfaces_relax_in_the_solver(yield_function):
+    """φ = 30°, ψ = 10° at rest above yield: the column stays at rest and relaxes onto F = 0 (checked
+    on the host: Drucker–Prager √J₂ + αI₁ = k; Mohr–Coulomb in triaxial compression, where the rounding
+    lies inside the sharp cone by up to 4.5 % of √J₂ at the triaxial-compression corner)."""
+    phi = math.radians(30.0)
+    stress = (-10e3, -80e3, -10e3, 0.0, 0.0, 0.0)  # triaxial compression, outside both cones
+    top = Boundary(name="top", kind="fixed", axis="y", position=1.0, side="max")
+    material = soil(yield_function=yield_function, friction_angle=30.0, dilatancy_angle=10.0, fluidity=10.0)
+    scene = column(material, top, dx=0.1, stress=stress)
+    *_, (t, model, state) = advance(scene, 40, every=40)
+    n = model.particle_count
+    sigma = state.particle_stress.numpy()[:n]
+    assert np.abs(state.particle_v.numpy()[:n]).max() < 1e-9
+    assert state.particle_plastic_strain.numpy()[:n].min() > 0.0
+    i1 = np.trace(sigma, axis1=1, axis2=2)
+    j2 = von_mises(sigma) ** 2 / 3.0
+    if yield_function == "drucker_prager":
+        root = math.sqrt(9.0 + 12.0 * math.tan(phi) ** 2)
+        f = np.sqrt(j2) + math.tan(phi) / root * i1 - 3.0 * COHESION / root
+        assert np.abs(f).max() < 0.01 * COHESION
+    else:
+        principal = np.linalg.eigvalsh(sigma)  # ascending: σ₃ (most compressive) first
+        sharp = (principal[:, 2] - principal[:, 0]) / 2 + (principal[:, 2] + principal[:, 0]) / 2 * math.sin(phi)
+        f = sharp - COHESION * math.cos(phi)
+        print(f"\nMohr–Coulomb: sharp F after relaxation {f.min():.0f} to {f.max():.0f} Pa")
+        assert np.all(f < 0.01 * COHESION)  # at or inside the sharp cone: the rounded surface lies inside it
+        assert np.all(f > -0.05 * np.sqrt(j2))  # by no more than the rounding (4.5 % of √J₂ at 30°)
+
+
 def test_softening_stops_at_the_residual_cohesion():
     """With H < 0 (here √3H = −0.9·3G, steep but 3G + √3H > 0) the relaxing column softens until
     c(ε̄) = max(c + Hε̄, c_r) reaches c_r and then relaxes onto σ_eq = √3 c_r."""

@@ -187,6 +187,10 @@ BAD_CASES = {
                                                                               "friction_angle = 20\n"
                                                                               "dilatancy_angle = 25")),
                                  "materials.soil.dilatancy_angle"),
+    "two yield functions in one scene": (chain(PLASTICITY, VISCOPLASTIC,
+                                               append('\n[materials.rock]\nmodel = "viscoplastic"\ncohesion = 1e5\n'
+                                                      'yield_function = "mohr_coulomb"\n')),
+                                         "materials.rock.yield_function"),
     "residual above cohesion": (chain(PLASTICITY, VISCOPLASTIC, material_key("residual_cohesion = 2e4")),
                                 "materials.soil.residual_cohesion"),
     "plastic strain output without plasticity": (
