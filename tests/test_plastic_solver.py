@@ -188,6 +188,23 @@ def test_run_writes_and_checkpoints_plastic_strain(tmp_path):
     assert np.array_equal(saved, run.state.particle_plastic_strain.numpy())
 
 
+def test_resume_continues_the_plastic_strain(tmp_path):
+    """A run stopped and resumed equals the uninterrupted one bit for bit, ε̄ included."""
+    stress = (-10e3, -30e3, -10e3, 0.0, 0.0, 0.0)
+    top = Boundary(name="top", kind="velocity", axis="y", position=1.0, side="max", velocity=(0.0, -0.01, 0.0))
+    scene = column(soil(fluidity=1.0, reference_stress=10e3), top, dx=0.1, stress=stress)
+    scene.output.usd = False
+    dt = scene.time_step
+    scene.output.frame_interval = 5 * dt
+    whole = Run(scene, tmp_path / "whole", end_time=20.5 * dt)
+    whole.run()
+    Run(scene, tmp_path / "split", end_time=10.5 * dt).run()
+    second = Run(scene, tmp_path / "split", end_time=20.5 * dt, resume=True)
+    second.run()
+    for name, arr in whole.state.arrays().items():
+        assert np.array_equal(arr.numpy(), second.state.arrays()[name].numpy()), name
+
+
 def test_works_with_pore_water(scenes_dir):
     """Terzaghi's column with a weak viscoplastic skeleton: the effective stress relaxes to the surface
     (under the drained top the load strains the skeleton fast, so there the overstress is larger)."""
