@@ -4,6 +4,7 @@ Probes are Lagrangian: a "point" probe follows the material particle nearest its
 start, a "region_mean" probe the particles that start inside its region; a "reaction" probe sums
 the total traction σ·n (σ = σ′ − p I with pore water) over the particles lying on a boundary plane, each standing for an area V/Δx,
 halved for every other plane it also lies on (an edge particle's area is half outside the body).
+Every value is multiplied by the probe's ``scale`` before it is written.
 """
 
 from __future__ import annotations
