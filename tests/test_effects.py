@@ -1,6 +1,8 @@
 """Only the effects a scene calls for: a dry elastic scene allocates no pore-pressure or plastic
 array and launches no projection or plasticity kernel."""
 
+import dataclasses
+
 import numpy as np
 
 from warpsph.builder import build
@@ -36,3 +38,22 @@ def test_schemes_have_their_own_stages(scenes_dir):
     collocated = Solver(model).stage_names
     assert "taylor_half_step" in two_set and "taylor_half_step" not in collocated
     assert "runge_kutta" in collocated and "runge_kutta" not in two_set
+
+
+def test_plastic_scene_launches_the_plastic_variant(scenes_dir):
+    """The reverse: with effects.plasticity the Taylor steps are the plastic variant and ε̄ exists
+    (on every real particle and ghost), still without pore-water arrays or kernels."""
+    scene = load_scene(scenes_dir / "wave_column.toml")
+    scene.effects = dataclasses.replace(scene.effects, plasticity=True)
+    soil = scene.materials["soil"]
+    soil.model, soil.cohesion = "viscoplastic", 1e3
+    model, state = build(scene.validate())
+    assert state.particle_plastic_strain.shape == (model.particle_total,)
+    assert state.particle_pore_pressure is None and model.pore is None
+    solver = Solver(model)
+    scratch = model.state()
+    with record_launches() as launched:
+        solver.step(state, scratch, 0.0, scene.time_step)
+    assert {"half_step_plastic_von_mises", "full_step_plastic_von_mises"} <= launched
+    assert not [k for k in launched if any(word in k.lower() for word in ("pressure", "projection", "pore"))]
+    assert np.isfinite(scratch.particle_plastic_strain.numpy()).all()

@@ -122,6 +122,8 @@ def base_drainage(table: str):
 
 
 PORE_WATER = edit("pore_water = false", "pore_water = true")
+PLASTICITY = edit("pore_water = false", "plasticity = true")
+VISCOPLASTIC = edit('model = "elastic"', 'model = "viscoplastic"\ncohesion = 1e4')
 
 
 def chain(*edits):
@@ -163,7 +165,40 @@ BAD_CASES = {
     "unknown probe field": (edit('field = "stress_yy"', 'field = "strain_yy"'), "probes.middle.field"),
     "reaction on unknown boundary": (edit('boundary = "base"', 'boundary = "bottom"'), "probes.base_force.boundary"),
     "duplicate body names": (append(SECOND_BODY), "bodies.column.name"),
-    "plasticity": (edit("pore_water = false", "plasticity = true"), "effects.plasticity"),
+    "viscoplastic without the effect": (VISCOPLASTIC, "materials.soil.model"),
+    "plasticity with the collocated scheme": (chain(PLASTICITY, edit('scheme = "two_set"', 'scheme = "collocated"')),
+                                              "simulation.scheme"),
+    "unknown yield function": (chain(PLASTICITY, VISCOPLASTIC, material_key('yield_function = "tresca"')),
+                               "materials.soil.yield_function"),
+    "friction angle 90": (chain(PLASTICITY, VISCOPLASTIC, material_key('yield_function = "mohr_coulomb"\n'
+                                                                       "friction_angle = 90")),
+                          "materials.soil.friction_angle"),
+    "negative friction angle": (chain(PLASTICITY, VISCOPLASTIC, material_key("friction_angle = -5")),
+                                "materials.soil.friction_angle"),
+    "negative cohesion": (chain(PLASTICITY, VISCOPLASTIC, edit("cohesion = 1e4", "cohesion = -1e4")),
+                          "materials.soil.cohesion"),
+    "von Mises without cohesion": (chain(PLASTICITY, VISCOPLASTIC, edit("cohesion = 1e4", "cohesion = 0")),
+                                   "materials.soil.cohesion"),
+    "zero fluidity": (chain(PLASTICITY, VISCOPLASTIC, material_key("fluidity = 0")), "materials.soil.fluidity"),
+    "negative fluidity": (chain(PLASTICITY, VISCOPLASTIC, material_key("fluidity = -1")), "materials.soil.fluidity"),
+    "zero reference stress": (chain(PLASTICITY, VISCOPLASTIC, material_key("reference_stress = 0")),
+                              "materials.soil.reference_stress"),
+    "rate exponent below 1": (chain(PLASTICITY, VISCOPLASTIC, material_key("rate_exponent = 0.5")),
+                              "materials.soil.rate_exponent"),
+    "dilatancy above friction": (chain(PLASTICITY, VISCOPLASTIC, material_key('yield_function = "drucker_prager"\n'
+                                                                              "friction_angle = 20\n"
+                                                                              "dilatancy_angle = 25")),
+                                 "materials.soil.dilatancy_angle"),
+    "two yield functions in one scene": (chain(PLASTICITY, VISCOPLASTIC,
+                                               append('\n[materials.rock]\nmodel = "viscoplastic"\ncohesion = 1e5\n'
+                                                      'yield_function = "mohr_coulomb"\n')),
+                                         "materials.rock.yield_function"),
+    "residual above cohesion": (chain(PLASTICITY, VISCOPLASTIC, material_key("residual_cohesion = 2e4")),
+                                "materials.soil.residual_cohesion"),
+    "plastic strain output without plasticity": (
+        edit('fields = ["velocity", "stress"]', 'fields = ["velocity", "plastic_strain"]'), "output.fields[1]"),
+    "plastic strain probe without plasticity": (edit('field = "stress_yy"', 'field = "plastic_strain"'),
+                                                "probes.middle.field"),
     "porosity 0": (material_key("porosity = 0"), "materials.soil.porosity"),
     "porosity 1.2": (material_key("porosity = 1.2"), "materials.soil.porosity"),
     "negative conductivity": (material_key("hydraulic_conductivity = -1e-5"), "materials.soil.hydraulic_conductivity"),
@@ -255,6 +290,15 @@ def test_messages_say_what_is_accepted():
         parse_scene(BASE + "\n[pressure]\ntolerance = 0\n")
     with pytest.raises(SceneError, match=r'^output\.fields\[1\]: "pore_pressure" needs effects\.pore_water = true$'):
         parse_scene(BASE.replace('fields = ["velocity", "stress"]', 'fields = ["velocity", "pore_pressure"]'))
+    plastic = BASE.replace("pore_water = false", "plasticity = true").replace(
+        'model = "elastic"', 'model = "viscoplastic"\ncohesion = 1e4\nyield_function = "mohr_coulomb"')
+    with pytest.raises(SceneError, match=r"^materials\.soil\.friction_angle: must be in \[0, 90\), got 90\.0$"):
+        parse_scene(plastic.replace("poisson_ratio = 0.3", "poisson_ratio = 0.3\nfriction_angle = 90"))
+    with pytest.raises(SceneError, match=r'^materials\.soil\.yield_function: must be one of "von_mises", '
+                       r'"drucker_prager", "mohr_coulomb", got "cam_clay"$'):
+        parse_scene(plastic.replace('"mohr_coulomb"', '"cam_clay"'))
+    with pytest.raises(SceneError, match=r"^materials\.soil\.fluidity: must be > 0, got 0\.0$"):
+        parse_scene(plastic.replace("poisson_ratio = 0.3", "poisson_ratio = 0.3\nfluidity = 0"))
     with pytest.raises(SceneError, match=r"unknown section; accepted: .*output, pressure, probes"):
         parse_scene(BASE + "\n[solver]\ntolerance = 1\n")
     with pytest.raises(SceneError, match=r"empty body: no lattice point of spacing dx = 0.1 lies inside it"):

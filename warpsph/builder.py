@@ -8,12 +8,15 @@ radius plus a margin is mirrored across it, so corners get ghosts of ghosts.
 
 from __future__ import annotations
 
+import math
+
 import numpy as np
 import warp as wp
 
 from warpsph.fields import voigt_to_tensor
 from warpsph.lattice import fill_body, fill_cells
 from warpsph.model import PLANE_FIXED, PLANE_SLIP, PLANE_TRACTION, PLANE_VELOCITY, Model, State
+from warpsph.physics.plasticity import material_struct, viscoplastic_material
 from warpsph.pore_water import build_pore_water
 from warpsph.errors import SceneError
 from warpsph.scene import AXES, Scene
@@ -96,6 +99,25 @@ def _geostatic(material, points: np.ndarray, gravity, pore_water: bool) -> np.nd
     out[:, 0, 0] = out[:, 2, 2] = k0 * vertical
     out[:, 1, 1] = vertical
     return out
+
+
+def _plastic_materials(spec: Spec, materials, device: str) -> wp.array:
+    """One viscoplastic material struct per material [SI units]; von Mises takes σ_Y = √3 c (c = c_u)
+    and scales H and the residual alike. Elastic materials get fluidity 0: they never relax."""
+    structs = []
+    for mat in materials:
+        if mat.model != "viscoplastic":
+            structs.append(viscoplastic_material(spec, spec.yield_function, strength=0.0, fluidity=0.0,
+                                                 reference_stress=1.0))  # fmt: skip
+            continue
+        scale = math.sqrt(3.0) if spec.yield_function == "von_mises" else 1.0
+        structs.append(viscoplastic_material(
+            spec, spec.yield_function, strength=scale * mat.cohesion, fluidity=mat.fluidity,
+            reference_stress=mat.reference_stress, hardening=scale * mat.hardening_modulus,
+            residual_strength=scale * mat.residual_cohesion, friction=math.radians(mat.friction_angle),
+            dilatancy=math.radians(mat.dilatancy_angle), exponent=mat.rate_exponent,
+        ))  # fmt: skip
+    return wp.array(structs, dtype=material_struct(spec), device=device)
 
 
 def _check_drained_planes(scene: Scene, planes, on_plane: np.ndarray, points: np.ndarray) -> None:
@@ -244,6 +266,7 @@ def build(scene: Scene, device: str = "cpu", precision: str | None = None) -> tu
         region_virtual_load=arr(region_virtual_load, wp.int32),
         region_velocity=arr(np.array([ld.velocity for ld in vel_loads], npr), vec3, (0, 3)),
         region_functions=[ld.time_function for ld in vel_loads],
+        material_plasticity=_plastic_materials(spec, mats, device) if spec.effects.plasticity else None,
         particle_ids=np.arange(n, dtype=np.int64),
         pore=(build_pore_water(scene, [p[8] for p in planes], float(real_pts[:, 1].max()), vec3, grow, device)
               if pore else None),

@@ -109,6 +109,9 @@ class Model:
     """(n_velocity_loads,) vec3 [m/s] before the time factor."""
     region_functions: list
 
+    material_plasticity: wp.array | None = None
+    """(n_materials,) :func:`~warpsph.physics.plasticity.material_struct` values (plasticity only;
+    elastic materials have fluidity 0, so they never relax)."""
     particle_ids: np.ndarray = field(default_factory=lambda: np.zeros(0, dtype=np.int64))
     pore: PoreWaterModel | None = None
     """Hydraulic data, only with the pore_water effect."""
@@ -144,6 +147,8 @@ class State:
     """(M+GV,) density at the virtual points [kg/m³] (two-set scheme only)."""
     particle_pore_pressure: wp.array | None = None
     """(N+G,) float64 excess pore pressure over hydrostatic [Pa, compression positive] (pore_water only)."""
+    particle_plastic_strain: wp.array | None = None
+    """(N+G,) accumulated equivalent plastic strain ε̄ = ∫√(⅔ d^vp:d^vp) dt [-] (plasticity only)."""
 
     @classmethod
     def allocate(cls, model: Model) -> "State":
@@ -158,6 +163,7 @@ class State:
             virtual_q=wp.zeros(m, dtype=s.vec3, device=dev) if two_set else None,
             virtual_density=wp.zeros(m, dtype=s.real, device=dev) if two_set else None,
             particle_pore_pressure=wp.zeros(n, dtype=wp.float64, device=dev) if s.effects.pore_water else None,
+            particle_plastic_strain=wp.zeros(n, dtype=s.real, device=dev) if s.effects.plasticity else None,
         )
 
     def arrays(self) -> dict[str, wp.array]:

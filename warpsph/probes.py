@@ -4,6 +4,7 @@ Probes are Lagrangian: a "point" probe follows the material particle nearest its
 start, a "region_mean" probe the particles that start inside its region; a "reaction" probe sums
 the total traction σ·n (σ = σ′ − p I with pore water) over the particles lying on a boundary plane, each standing for an area V/Δx,
 halved for every other plane it also lies on (an edge particle's area is half outside the body).
+Every value is multiplied by the probe's ``scale`` before it is written.
 """
 
 from __future__ import annotations
@@ -31,8 +32,8 @@ def field_values(name: str, fields: dict[str, np.ndarray], x0: np.ndarray) -> np
         return mean_stress(fields["stress"])
     if name == "von_mises":
         return von_mises(fields["stress"])
-    if name == "pore_pressure":
-        return fields["pore_pressure"]
+    if name in ("pore_pressure", "plastic_strain"):
+        return fields[name]
     raise ValueError(f"unknown probe field {name!r}")
 
 
@@ -88,8 +89,8 @@ class Probes:
             if p.kind == "reaction":
                 traction = total_stress(fields)[sel] @ normal
                 area = factor * self._mass[sel] / fields["density"][sel] / self.model.dx
-                out[p.name] = float(np.sum(traction[:, _COMPONENT[p.field]] * area))
+                out[p.name] = p.scale * float(np.sum(traction[:, _COMPONENT[p.field]] * area))
             else:
                 values = field_values(p.field, {k: v[sel] for k, v in fields.items()}, x0[sel])
-                out[p.name] = float(np.mean(values)) if len(values) else float("nan")
+                out[p.name] = p.scale * float(np.mean(values)) if len(values) else float("nan")
         return out

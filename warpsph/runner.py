@@ -61,7 +61,8 @@ class RunSummary:
 
 def host_fields(model: Model, state: State) -> dict[str, np.ndarray]:
     """Owned-particle fields on the host: position, velocity (N,3) [m, m/s], stress (N,3,3) [Pa],
-    density [kg/m³] and, with pore water, the total pore pressure (N,) [Pa]."""
+    density [kg/m³], with pore water the total pore pressure (N,) [Pa] and with plasticity the
+    equivalent plastic strain (N,) [-]."""
     n = model.particle_count
     fields = {
         "position": state.particle_q.numpy()[:n].astype(np.float64),
@@ -73,6 +74,8 @@ def host_fields(model: Model, state: State) -> dict[str, np.ndarray]:
         water_density = model.pore.material_water_density.numpy()[model.particle_material.numpy()[:n]]
         hydrostatic = model.pore.hydrostatic(fields["position"], water_density)
         fields["pore_pressure"] = state.particle_pore_pressure.numpy()[:n] + hydrostatic
+    if state.particle_plastic_strain is not None:
+        fields["plastic_strain"] = state.particle_plastic_strain.numpy()[:n].astype(np.float64)
     return fields
 
 
@@ -177,6 +180,8 @@ class Run:
             frame["stress"] = tensor_to_voigt(fields["stress"])
         if "pore_pressure" in fields:
             frame["pore_pressure"] = fields["pore_pressure"]
+        if "plastic_strain" in fields:
+            frame["plastic_strain"] = fields["plastic_strain"]
         if "darcy_velocity" in wanted:
             frame["darcy_velocity"] = self.solver.projection.darcy_velocity(self.state)
         self._sample_probes(fields)

@@ -114,10 +114,12 @@ class Effects:
 
 @dataclass
 class Material:
-    """Linear hypo-elastic solid (Jaumann rate)."""
+    """Linear hypo-elastic solid (Jaumann rate); with ``model = "viscoplastic"`` (plasticity effect)
+    also Perzyna viscoplastic over one of three yield functions (docs/scenes.md, docs/method.md)."""
 
     name: str = "material"
     model: str = "elastic"
+    """"elastic" or "viscoplastic" (needs effects.plasticity)."""
     density: float = 2000.0
     """Mass density ρ [kg/m³]."""
     youngs_modulus: float = 1.0e7
@@ -138,6 +140,25 @@ class Material:
     """Hydraulic conductivity k_h [m/s] ≥ 0; k = k_h / (ρ_w g) with g = 9.81 m/s² (pore_water effect)."""
     k0: float | None = None
     """Earth-pressure coefficient at rest for geostatic stresses; None means ν/(1−ν)."""
+    yield_function: str = "von_mises"
+    """"von_mises", "drucker_prager" (matched to Mohr–Coulomb in plane strain) or "mohr_coulomb"
+    (rounded corners); one per scene (viscoplastic)."""
+    cohesion: float = 0.0
+    """Cohesion c [Pa] ≥ 0; for von Mises the undrained shear strength c_u, σ_Y = √3 c (viscoplastic)."""
+    friction_angle: float = 0.0
+    """Friction angle φ [degrees] in [0, 90) (Drucker–Prager, Mohr–Coulomb)."""
+    dilatancy_angle: float = 0.0
+    """Dilatancy angle ψ [degrees] in [0, φ]; ψ = φ is associated flow (Drucker–Prager, Mohr–Coulomb)."""
+    hardening_modulus: float = 0.0
+    """H = dc/dε̄ [Pa] per unit equivalent plastic strain; < 0 softens (viscoplastic)."""
+    residual_cohesion: float = 0.0
+    """Floor c_r [Pa] in [0, cohesion] of the softened cohesion c + H ε̄ (viscoplastic)."""
+    fluidity: float = 1.0
+    """Perzyna fluidity γ [1/s] > 0 (viscoplastic)."""
+    reference_stress: float = 1.0e4
+    """Perzyna normalising stress F₀ [Pa] > 0: d^vp = γ ⟨F/F₀⟩^N ∂G/∂σ′ (viscoplastic)."""
+    rate_exponent: float = 1.0
+    """Perzyna exponent N ≥ 1 (viscoplastic)."""
 
     @property
     def shear_modulus(self) -> float:
@@ -307,7 +328,9 @@ class Probe:
     (2D) or force (3D) [N/m or N] that the boundary or load named ``boundary`` exerts on the body,
     component ``field`` ("x", "y" or "z").
     Fields: velocity_x|y|z [m/s], displacement_x|y|z [m], stress_xx|yy|zz|yz|xz|xy [Pa],
-    mean_stress [Pa], von_mises [Pa], pore_pressure [Pa] (total; pore_water only).
+    mean_stress [Pa], von_mises [Pa], pore_pressure [Pa] (total; pore_water only), plastic_strain
+    [-] (plasticity only). The written value is the probe's value times ``scale`` (e.g. a reaction
+    over a loaded width gives a mean pressure, or −1 turns tension-positive into compression-positive).
     """
 
     name: str = "probe"
@@ -316,6 +339,7 @@ class Probe:
     point: tuple[float, float, float] = (0.0, 0.0, 0.0)
     region: Region | None = None
     boundary: str = ""
+    scale: float = 1.0
 
 
 @dataclass
@@ -383,6 +407,15 @@ class Scene:
         """Largest drained P-wave speed of the materials in use [m/s]."""
         used = {b.material for b in self.bodies}
         return max(self.materials[m].p_wave_speed for m in used)
+
+    @property
+    def yield_function(self) -> str:
+        """The yield function of the viscoplastic materials with the plasticity effect (validation
+        allows one per scene; "von_mises" if no material is viscoplastic), "" without the effect."""
+        if not self.effects.plasticity:
+            return ""
+        names = [m.yield_function for m in self.materials.values() if m.model == "viscoplastic"]
+        return names[0] if names else "von_mises"
 
     @property
     def time_step(self) -> float:

@@ -79,6 +79,8 @@ class Solver:
         self.boundaries.move_planes(si.particle_q)
         self.boundaries.update_real_ghosts(si.particle_q, si.particle_v, si.particle_stress, si.particle_density,
                                            si.particle_pore_pressure)
+        if si.particle_plastic_strain is not None:
+            self.boundaries.copy_to_real_ghosts(si.particle_plastic_strain)
         if self.projection is not None:
             self.projection.update_ghosts(si.particle_q, si.particle_pore_pressure, homogeneous=False)
         self.boundaries.update_virtual_ghosts(si.virtual_q, self.virtual_v, self.virtual_stress, si.virtual_density,
@@ -111,8 +113,8 @@ class Solver:
                 si.particle_stress, *self.real_fits.arrays(), si.virtual_q, si.virtual_density, m.virtual_material,
                 *self.virtual_fits.arrays(),
                 m.material_lambda, m.material_shear, self.virtual_v, self.virtual_stress, so.virtual_q,
-                so.virtual_density, si.particle_pore_pressure, self._water_density, self.virtual_p],
-               m.device)  # fmt: skip
+                so.virtual_density, si.particle_pore_pressure, self._water_density, self.virtual_p,
+                si.particle_plastic_strain, m.material_plasticity], m.device)  # fmt: skip
 
     def _virtual_ghosts(self, si: State, so: State, t: float, dt: float) -> None:
         self.boundaries.set_time(t + 0.5 * dt)
@@ -134,7 +136,8 @@ class Solver:
                 *self.virtual_fits.arrays()[:4], *self.real_fits.arrays(), si.particle_q, si.particle_v,
                 si.particle_stress, si.particle_density, m.particle_material, m.material_lambda, m.material_shear,
                 m.material_wave_speed, so.particle_q, so.particle_v, so.particle_stress, so.particle_density,
-                self.virtual_p, self._water_density], m.device)  # fmt: skip
+                self.virtual_p, self._water_density, si.particle_plastic_strain, m.material_plasticity,
+                so.particle_plastic_strain], m.device)  # fmt: skip
 
     @property
     def _water_density(self):

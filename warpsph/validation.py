@@ -49,12 +49,14 @@ PROBE_FIELDS = (
     "mean_stress",
     "von_mises",
     "pore_pressure",
+    "plastic_strain",
 )
-OUTPUT_FIELDS = ("velocity", "stress", "displacement", "pore_pressure", "darcy_velocity")
+OUTPUT_FIELDS = ("velocity", "stress", "displacement", "pore_pressure", "darcy_velocity", "plastic_strain")
 PORE_WATER_FIELDS = ("pore_pressure", "darcy_velocity")
 """Probe and output fields that need ``effects.pore_water``."""
-UNAVAILABLE_EFFECTS = ("plasticity",)
-"""Effects declared in :class:`~warpsph.scene.Effects` but not implemented in this version."""
+PLASTICITY_FIELDS = ("plastic_strain",)
+"""Probe and output fields that need ``effects.plasticity``."""
+YIELD_FUNCTIONS = ("von_mises", "drucker_prager", "mohr_coulomb")
 UNBOUNDED_FIELDS = {
     (Simulation, "velocity_limit"),
     (Region, "min"),
@@ -145,6 +147,8 @@ NON_NEGATIVE = Interval(0.0, lo_closed=True, hi_closed=True)
 UNIT_INTERVAL = Interval(0.0, 1.0)
 WATER_DENSITIES = Interval(500.0, 2000.0, True, True)
 """Water densities [kg/m³] that are plausible; others are taken for a unit mistake."""
+FRICTION_ANGLES = Interval(0.0, 90.0, lo_closed=True)
+"""Friction angles φ [degrees] accepted: [0°, 90°)."""
 
 
 def check_range(key: str, value: float, interval: Interval) -> None:
@@ -304,10 +308,11 @@ def validate_scene(scene: Scene) -> None:
     as_string("name", scene.name)
     _check_simulation(scene.simulation)
     _check_effects(scene.effects)
-    if scene.effects.pore_water and scene.simulation.scheme != "two_set":
-        raise SceneError("simulation.scheme", 'the pore_water effect runs with the "two_set" scheme only, '
-                         f"got {show(scene.simulation.scheme)}")  # fmt: skip
-    _check_materials(scene.materials)
+    for effect in ("pore_water", "plasticity"):
+        if getattr(scene.effects, effect) and scene.simulation.scheme != "two_set":
+            raise SceneError("simulation.scheme", f'the {effect} effect runs with the "two_set" scheme only, '
+                             f"got {show(scene.simulation.scheme)}")  # fmt: skip
+    _check_materials(scene.materials, scene.effects)
     _check_pressure(scene.pressure)
     bodies = _named_items(scene, "bodies", Body)
     if not bodies:
@@ -362,12 +367,9 @@ def _check_simulation(sim: Simulation) -> None:
 def _check_effects(effects: Effects) -> None:
     check_instance("effects", effects, Effects)
     check_types(effects, "effects")
-    for name in UNAVAILABLE_EFFECTS:
-        if getattr(effects, name):
-            raise SceneError(f"effects.{name}", f"the {name} effect is not available in this version of warpsph")
 
 
-def _check_materials(materials: dict) -> None:
+def _check_materials(materials: dict, effects: Effects) -> None:
     if not isinstance(materials, dict):
         raise SceneError("materials", f"expected a table of materials, got {type(materials).__name__}")
     if not materials:
@@ -377,7 +379,9 @@ def _check_materials(materials: dict) -> None:
         key = f"materials.{name}"
         check_instance(key, material, Material)
         check_types(material, key)
-        check_choice(f"{key}.model", material.model, ("elastic",))
+        check_choice(f"{key}.model", material.model, ("elastic", "viscoplastic"))
+        if material.model == "viscoplastic":
+            _check_viscoplastic(material, key, effects)
         check_range(f"{key}.porosity", material.porosity, UNIT_INTERVAL)
         if material.water_density not in WATER_DENSITIES:
             raise SceneError(
@@ -410,6 +414,37 @@ def _check_materials(materials: dict) -> None:
             )
         if material.k0 is not None:
             check_range(f"{key}.k0", material.k0, NON_NEGATIVE)
+    _check_one_yield_function(materials)
+
+
+def _check_viscoplastic(material: Material, key: str, effects: Effects) -> None:
+    if not effects.plasticity:
+        raise SceneError(f"{key}.model", '"viscoplastic" needs effects.plasticity = true')
+    check_choice(f"{key}.yield_function", material.yield_function, YIELD_FUNCTIONS)
+    check_range(f"{key}.cohesion", material.cohesion, NON_NEGATIVE)
+    check_range(f"{key}.friction_angle", material.friction_angle, FRICTION_ANGLES)
+    if material.yield_function == "von_mises" or material.friction_angle == 0.0:
+        check_range(f"{key}.cohesion", material.cohesion, POSITIVE)
+    check_range(f"{key}.dilatancy_angle", material.dilatancy_angle,
+                Interval(0.0, material.friction_angle, True, True))  # fmt: skip
+    check_range(f"{key}.residual_cohesion", material.residual_cohesion, Interval(0.0, material.cohesion, True, True))
+    check_range(f"{key}.fluidity", material.fluidity, POSITIVE)
+    check_range(f"{key}.reference_stress", material.reference_stress, POSITIVE)
+    check_range(f"{key}.rate_exponent", material.rate_exponent, Interval(1.0, lo_closed=True, hi_closed=True))
+
+
+def _check_one_yield_function(materials: dict) -> None:
+    """The kernels compile one yield function per scene."""
+    first = None
+    for name, material in materials.items():
+        if material.model != "viscoplastic":
+            continue
+        if first is None:
+            first = name, material.yield_function
+        elif material.yield_function != first[1]:
+            raise SceneError(f"materials.{name}.yield_function",
+                             f"all viscoplastic materials of a scene share one yield function, "
+                             f"materials.{first[0]} has {show(first[1])}, got {show(material.yield_function)}")
 
 
 def mixture_density(material: Material) -> float:
@@ -441,6 +476,11 @@ def _check_pressure(pressure: PressureSolver) -> None:
 def _needs_pore_water(key: str, effects: Effects, what: str) -> None:
     if not effects.pore_water:
         raise SceneError(key, f"{what}needs effects.pore_water = true")
+
+
+def _needs_plasticity(key: str, effects: Effects, what: str) -> None:
+    if not effects.plasticity:
+        raise SceneError(key, f"{what}needs effects.plasticity = true")
 
 
 def _check_body(body: Body, key: str, scene: Scene) -> None:
@@ -590,6 +630,8 @@ def _check_probe(probe: Probe, key: str, scene: Scene) -> None:
     check_choice(f"{key}.field", probe.field, PROBE_FIELDS)
     if probe.field in PORE_WATER_FIELDS:
         _needs_pore_water(f"{key}.field", scene.effects, f"{show(probe.field)} ")
+    if probe.field in PLASTICITY_FIELDS:
+        _needs_plasticity(f"{key}.field", scene.effects, f"{show(probe.field)} ")
     if probe.kind == "region_mean":
         if probe.region is None:
             raise SceneError(f"{key}.region", 'a "region_mean" probe needs region = { min = [...], max = [...] }')
@@ -604,5 +646,7 @@ def _check_output(output: Output, effects: Effects) -> None:
         check_choice(f"output.fields[{i}]", name, OUTPUT_FIELDS)
         if name in PORE_WATER_FIELDS:
             _needs_pore_water(f"output.fields[{i}]", effects, f"{show(name)} ")
+        if name in PLASTICITY_FIELDS:
+            _needs_plasticity(f"output.fields[{i}]", effects, f"{show(name)} ")
     check_range("output.checkpoint_interval", output.checkpoint_interval, NON_NEGATIVE)
     check_range("output.probe_every", output.probe_every, Interval(1.0, lo_closed=True, hi_closed=True))

@@ -7,7 +7,9 @@ triaxial extension.
 
 The three yield functions share one form, so one gradient formula serves them all:
 
-    F(σ, ε̄) = β I₁ + √(J₂ K(ϑ)² + a²) − k_c s_y(ε̄),    s_y = s_y0 + H ε̄ (linear, no floor)
+    F(σ, ε̄) = β I₁ + √(J₂ K(ϑ)² + a²) − k_c s_y(ε̄),    s_y = max(s_y0 + H ε̄, s_r)
+
+(linear hardening or softening down to the residual strength s_r; s_r = −∞ by default, no floor)
 
 - von Mises: β = 0, K = √3, a = 0, k_c = 1, s_y0 = σ_Y0, i.e. F = √(3J₂) − σ_Y(ε̄).
 - Drucker–Prager matched to Mohr–Coulomb in plane strain: β = α = tanφ/√(9+12tan²φ), K = 1,
@@ -70,6 +72,7 @@ def material_struct(spec: Spec):
         exponent: real  # N [-]
         strength: real  # s_y0: σ_Y0 (von Mises) or c₀ (Drucker–Prager, Mohr–Coulomb) [Pa]
         hardening: real  # H = ds_y/dε̄ [Pa]; < 0 softens
+        residual_strength: real  # s_r, the floor of s_y under softening [Pa]
         strength_factor: real  # k_c [-]
         yield_slope: real  # β of F [-]
         yield_sine: real  # sinφ, shapes K(ϑ) of a Mohr–Coulomb F [-]
@@ -104,11 +107,13 @@ def viscoplastic_material(
     dilatancy: float = 0.0,
     exponent: float = 1.0,
     apex_fraction: float = APEX_FRACTION,
+    residual_strength: float = -math.inf,
 ):
     """A :func:`material_struct` instance. strength: σ_Y0 (von Mises) or cohesion c₀ [Pa]; fluidity γ
     [1/s]; reference_stress F₀ [Pa]; hardening H [Pa] per unit ε̄; friction φ and dilatancy ψ [rad]
     (ignored by von Mises); exponent N; apex_fraction f of the Mohr–Coulomb apex a = f c₀ cotφ (the
-    term a sinφ = f c₀ cosφ, so φ = 0 stays finite). Pass the same yield_name to plastic_functions."""
+    term a sinφ = f c₀ cosφ, so φ = 0 stays finite); residual_strength s_r [Pa], the floor of the
+    softened strength s_y0 + Hε̄ (−∞: none). Pass the same yield_name to plastic_functions."""
     if yield_name not in YIELD_NAMES:
         raise ValueError(f"unknown yield function {yield_name!r}; expected one of {YIELD_NAMES}")
     yield_slope, yield_sine, strength_factor = _cone(yield_name, friction)
@@ -121,7 +126,8 @@ def viscoplastic_material(
     real = spec.real
     for name, value in dict(
         fluidity=fluidity, reference_stress=reference_stress, exponent=exponent, strength=strength,
-        hardening=hardening, strength_factor=strength_factor, yield_slope=yield_slope, yield_sine=yield_sine,
+        hardening=hardening, residual_strength=residual_strength, strength_factor=strength_factor,
+        yield_slope=yield_slope, yield_sine=yield_sine,
         yield_apex=yield_apex, flow_slope=flow_slope, flow_sine=flow_sine, flow_apex=flow_apex,
     ).items():  # fmt: skip
         setattr(m, name, real(value))
@@ -267,7 +273,7 @@ def plastic_functions(spec: Spec, yield_name: str) -> PlasticFunctions:
     @wp.func
     def yield_value(sigma: mat33, eps: real, m: Material):
         """F(σ, ε̄) [Pa]; > 0 outside the elastic domain."""
-        strength = m.strength + m.hardening * eps
+        strength = wp.max(m.strength + m.hardening * eps, m.residual_strength)
         return surface_value(sigma, m.yield_slope, m.yield_sine, m.yield_apex) - m.strength_factor * strength
 
     @wp.func

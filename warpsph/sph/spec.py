@@ -22,7 +22,8 @@ _TYPES = {
 @dataclass(frozen=True)
 class Spec:
     """precision ("float32"|"float64"), dim (1, 2, 3), kernel ("cubic_spline"|"wendland_c2"),
-    scheme ("two_set"|"collocated"), integrator ("rk2"|"rk4") and the scene's effects."""
+    scheme ("two_set"|"collocated"), integrator ("rk2"|"rk4"), the scene's effects and, with
+    plasticity, its yield function."""
 
     precision: str = "float64"
     dim: int = 2
@@ -30,12 +31,15 @@ class Spec:
     scheme: str = "two_set"
     integrator: str = "rk4"
     effects: Effects = Effects()
+    yield_function: str = ""
+    """The viscoplastic materials' yield function with the plasticity effect, "" without."""
 
     @classmethod
     def from_scene(cls, scene, precision: str | None = None) -> "Spec":
         """The variant a scene needs; ``precision`` overrides the scene's."""
         sim = scene.simulation
-        return cls(precision or sim.precision, sim.dim, sim.kernel, sim.scheme, sim.integrator, scene.effects)
+        return cls(precision or sim.precision, sim.dim, sim.kernel, sim.scheme, sim.integrator, scene.effects,
+                   scene.yield_function)  # fmt: skip
 
     @property
     def real(self):

@@ -10,6 +10,8 @@ Each field has its own parity across a plane with outward normal n = s e_m (meth
 | slip      | normal odd, tangential even | mirrored, σ_g = RσR (shear odd, normal even*)  |
 | traction  | even                        | row m odd about the traction: σ_g,mk = 2 s t̄_k − σ_mk |
 
+Scalar state such as the equivalent plastic strain ε̄ is even across every plane (copied).
+
 *σ_nn continues with the gradient −(ρ − ρ_w) b·n that equilibrium at a wall implies (zero without
 body force): pure even parity put a kink into a geostatic stress and moved a column at rest.
 Particles that lie on a plane get the plane's prescribed values after every update. Fixed and slip
@@ -253,6 +255,18 @@ def _kernels(spec: Spec):
     return update_ghosts, prescribe_on_planes, prescribe_in_regions, sum_plane_positions, move_planes
 
 
+@functools.cache
+def _copy_kernel(spec: Spec):
+    """Even-parity scalar ghosts: each ghost takes its source's value (e.g. ε̄)."""
+
+    @wp.kernel(enable_backward=False, module="unique")
+    def copy_scalar_to_ghosts(n_owned: int, source: wp.array(dtype=wp.int32), values: wp.array(dtype=spec.real)):
+        g = wp.tid()
+        values[n_owned + g] = values[source[g]]
+
+    return copy_scalar_to_ghosts
+
+
 class Boundaries:
     """Launches the ghost and prescription kernels of a model; holds the per-time load factors."""
 
@@ -328,6 +342,12 @@ class Boundaries:
                [m.virtual_count, m.virtual_ghost_source, m.virtual_ghost_planes, *self._plane_args(),
                 *self._water_args(m.virtual_material, pore), *self._drainage_args(), m.virtual_origin, q, v, stress,
                 density],
+               m.device)  # fmt: skip
+
+    def copy_to_real_ghosts(self, values) -> None:
+        """Ghost entries of the real set's scalar field ``values`` from their sources, unchanged."""
+        m = self.model
+        launch(_copy_kernel(m.spec), m.particle_ghost_count, [m.particle_count, m.particle_ghost_source, values],
                m.device)  # fmt: skip
 
     def prescribe_virtual(self, v_half) -> None:

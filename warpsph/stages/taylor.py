@@ -14,6 +14,10 @@ the sources' fits: the surface force that the negative adjoint of the sources' g
 large stresses along a surface do not amplify particle-disorder noise. Tried and rejected (see
 docs/method.md): projecting the normal traction out of surface stresses (grew without bound in a
 free block) and the full adjoint divergence in the band (broke down under 1 MPa of compression).
+With the plasticity effect the source also relaxes the stress (Perzyna, method.md "Viscoplasticity"),
+applied after the flux (sequential splitting): σ* = Φⁿ + Δt Dᵉ:d, then ΔS is integrated from σ* and
+the equivalent plastic strain ε̄ (fitted from the reals at the virtual points, the real particle's
+own in the full step) advances by the source's Δε̄; the dry elastic variant is unchanged.
 Virtual points move with their half-step velocity, real particles with the half-step velocity
 fitted at them; densities follow continuity. Both use the configuration at tⁿ. Optional Monaghan
 artificial viscosity acts between real particles and virtual points in the full step.
@@ -24,6 +28,7 @@ import functools
 import warp as wp
 
 from warpsph.physics.elastic import elastic_functions
+from warpsph.physics.plasticity import material_struct, plastic_functions
 from warpsph.sph.kernels import smoothing_functions
 from warpsph.sph.operators import operator_functions
 from warpsph.sph.spec import Spec
@@ -38,6 +43,25 @@ def taylor_kernels(spec: Spec):
     hooke_rate, source_increment, split_velocity_gradient = elastic_functions(spec)
     zero, half, one = real(0.0), real(0.5), real(1.0)
     pore_water = spec.effects.pore_water
+    plasticity = spec.effects.plasticity
+    # the plastic arrays' element types; a dry variant takes unused real arrays (passed None)
+    PlasticMaterial = material_struct(spec) if plasticity else real
+    plastic_source = plastic_functions(spec, spec.yield_function).source_increment if plasticity else None
+    variant = f"_plastic_{spec.yield_function}" if plasticity else ""
+
+    @wp.func
+    def fit_value(
+        x: vec3, start: int, end: int, nbr: wp.array(dtype=wp.int32), xs: wp.array(dtype=vec3),
+        ms: wp.array(dtype=real), rhos: wp.array(dtype=real), values: wp.array(dtype=real), h: real, c: vec3,
+        inv_den: real, Minv: mat33,
+    ):  # fmt: skip
+        """A scalar field fitted at x from the sources (the value part of the linear fit)."""
+        value = zero
+        for k in range(start, end):
+            b = nbr[k]
+            psi, phi = fit_weights(xs[b] - x, h, c, inv_den, Minv)
+            value += (ms[b] / rhos[b] * psi) * values[b]
+        return value
 
     @wp.func
     def fit_fields(
@@ -82,7 +106,7 @@ def taylor_kernels(spec: Spec):
             div += (total * n) * wp.dot(surface_sum, n)
         return v, s, G, div, p
 
-    @wp.kernel(enable_backward=False, module="unique")
+    @wp.kernel(enable_backward=False, module="unique", name=f"half_step{variant}" if plasticity else None)
     def half_step(
         h: real,
         dt: real,
@@ -117,6 +141,8 @@ def taylor_kernels(spec: Spec):
         real_p: wp.array(dtype=wp.float64),
         water_density: wp.array(dtype=wp.float64),
         virt_p: wp.array(dtype=wp.float64),
+        real_plastic_strain: wp.array(dtype=real),
+        plastic_material: wp.array(dtype=PlasticMaterial),
     ):
         i = wp.tid()
         x = virt_q[i]
@@ -133,13 +159,20 @@ def taylor_kernels(spec: Spec):
             virt_p[i] = p  # pⁿ at the virtual point, for the full step's lagged pressure force
             body_force = gravity * (one - real(water_density[mat]) / rho)  # buoyant: ∇p_h = ρ_w b
         v_half = v + hdt * (div / rho + body_force)
-        s_half = s + hdt * hooke_rate(d, lam[mat], shear[mat]) + source_increment(s, spin, hdt)
+        if wp.static(plasticity):
+            eps = fit_value(x, offsets[i], offsets[i + 1], nbr, real_q, real_mass, real_density, real_plastic_strain,
+                            h, virt_fit_c[i], virt_fit_inv_den[i], virt_fit_minv[i])  # fmt: skip
+            s_trial = s + hdt * hooke_rate(d, lam[mat], shear[mat])
+            d_s, _d_eps = plastic_source(s_trial, eps, spin, hdt, lam[mat], shear[mat], plastic_material[mat])
+            s_half = s_trial + d_s
+        else:
+            s_half = s + hdt * hooke_rate(d, lam[mat], shear[mat]) + source_increment(s, spin, hdt)
         virt_v_half[i] = v_half
         virt_stress_half[i] = s_half
         virt_q_out[i] = x + dt * v_half
         virt_density_out[i] = rho * wp.exp(-dt * wp.trace(d))
 
-    @wp.kernel(enable_backward=False, module="unique")
+    @wp.kernel(enable_backward=False, module="unique", name=f"full_step{variant}" if plasticity else None)
     def full_step(
         h: real,
         dt: real,
@@ -176,6 +209,9 @@ def taylor_kernels(spec: Spec):
         density_out: wp.array(dtype=real),
         virt_p: wp.array(dtype=wp.float64),
         water_density: wp.array(dtype=wp.float64),
+        plastic_strain: wp.array(dtype=real),
+        plastic_material: wp.array(dtype=PlasticMaterial),
+        plastic_strain_out: wp.array(dtype=real),
     ):
         a = wp.tid()
         x = q[a]
@@ -188,7 +224,14 @@ def taylor_kernels(spec: Spec):
         mat = material[a]
         rho = density[a]
         s = stress[a]
-        s_new = s + dt * hooke_rate(d, lam[mat], shear[mat]) + source_increment(s, spin, dt)
+        if wp.static(plasticity):
+            s_trial = s + dt * hooke_rate(d, lam[mat], shear[mat])
+            d_s, d_eps = plastic_source(s_trial, plastic_strain[a], spin, dt, lam[mat], shear[mat],
+                                        plastic_material[mat])  # fmt: skip
+            s_new = s_trial + d_s
+            plastic_strain_out[a] = plastic_strain[a] + d_eps
+        else:
+            s_new = s + dt * hooke_rate(d, lam[mat], shear[mat]) + source_increment(s, spin, dt)
         visc = vec3(zero, zero, zero)
         if alpha > zero:
             va = v[a]
