@@ -19,6 +19,7 @@ import numbers
 import re
 import types
 import typing
+from decimal import Decimal
 from collections.abc import Iterable, Sequence
 
 import numpy as np
@@ -512,7 +513,7 @@ def _check_body(body: Body, key: str, scene: Scene) -> None:
         check_range(f"{key}.radius", body.radius, POSITIVE)
     span = lattice_span(body, dx, dim)
     if span > MAX_PARTICLES:
-        raise SceneError(key, f"spans {span:.3g} lattice points of spacing dx = {show(dx)}, more than the "
+        raise SceneError(key, f"spans {Decimal(span):.3g} lattice points of spacing dx = {show(dx)}, more than the "
                               f"{MAX_PARTICLES} particles a run can index (dx is in metres)")  # fmt: skip
     if not has_lattice_point(body, dx, dim):
         raise SceneError(key, f"empty body: no lattice point of spacing dx = {show(dx)} lies inside it")
