@@ -19,8 +19,8 @@ import numbers
 import re
 import types
 import typing
-from decimal import Decimal
 from collections.abc import Iterable, Sequence
+from decimal import Decimal
 
 import numpy as np
 
