@@ -12,6 +12,7 @@ import functools
 import numpy as np
 import warp as wp
 
+from warpsph.launching import launch_rows
 from warpsph.sph.spec import Spec
 
 
@@ -21,6 +22,7 @@ def _kernels(spec: Spec):
 
     @wp.kernel(enable_backward=False, module="unique")
     def gather(
+        first: int,
         grid: wp.uint64,
         query: wp.array(dtype=vec3),
         source: wp.array(dtype=vec3),
@@ -29,11 +31,12 @@ def _kernels(spec: Spec):
         width: int,
         counts: wp.array(dtype=wp.int32),
         padded: wp.array(dtype=wp.int32),
-        widest: wp.array(dtype=wp.int32),
+        overflow: wp.array(dtype=wp.int32),
     ):
-        """One query pass: the neighbour count of every query point and its first ``width``
-        neighbours in row ``a`` of the padded table; ``widest[0]`` becomes the largest count."""
-        a = wp.tid()
+        """One query pass (a row kernel): the neighbour count of every query point and its first
+        ``width`` neighbours in row ``a`` of the padded table; ``overflow[0]`` = 1 where a count
+        exceeds ``width`` (the only value any row stores there, so concurrent rows cannot race)."""
+        a = first + wp.tid()
         x = query[a]
         n = int(0)
         row = a * width
@@ -47,17 +50,19 @@ def _kernels(spec: Spec):
                     padded[row + n] = b
                 n += 1
         counts[a] = n
-        wp.atomic_max(widest, 0, n)
+        if n > width:
+            overflow[0] = 1
 
     @wp.kernel(enable_backward=False, module="unique")
     def compact(
+        first: int,
         width: int,
         padded: wp.array(dtype=wp.int32),
         offsets: wp.array(dtype=wp.int32),
         indices: wp.array(dtype=wp.int32),
     ):
-        """Copy row ``a`` of the padded table to its CSR place."""
-        a = wp.tid()
+        """Copy row ``a`` of the padded table to its CSR place (a row kernel)."""
+        a = first + wp.tid()
         start = offsets[a]
         row = a * width
         for k in range(offsets[a + 1] - start):
@@ -106,8 +111,8 @@ class NeighbourList:
         """Neighbours per row of the padded table [-]."""
         self.padded = wp.zeros(1, dtype=wp.int32, device=device)
         """(n_query × width,) int32 padded neighbour table of the last query pass."""
-        self.widest = wp.zeros(1, dtype=wp.int32, device=device)
-        """(1,) int32 largest neighbour count of the last query pass."""
+        self.overflow = wp.zeros(1, dtype=wp.int32, device=device)
+        """(1,) int32 1 where the last query pass found more neighbours than ``width``."""
         self.n_query = 0
         self.n_pairs = 0
 
@@ -128,19 +133,17 @@ class NeighbourList:
         while True:
             if self.padded.shape[0] < n_query * self.width:
                 self.padded = wp.empty(n_query * self.width, dtype=wp.int32, device=self.device)
-            self.widest.zero_()
-            wp.launch(gather, dim=n_query, inputs=[*args, self.width, self.counts, self.padded, self.widest],
-                      device=self.device)  # fmt: skip
-            widest = int(self.widest.numpy()[0])
-            if widest <= self.width:
+            self.overflow.zero_()
+            launch_rows(gather, n_query, [*args, self.width, self.counts, self.padded, self.overflow], self.device)
+            if not self.overflow.numpy()[0]:
                 break
-            self.width = int(widest * self.GROWTH) + 1
+            self.width = int(self.counts.numpy()[:n_query].max() * self.GROWTH) + 1
         self.counts[n_query : n_query + 1].zero_()
         wp.utils.array_scan(self.counts[: n_query + 1], self.offsets[: n_query + 1], inclusive=False)
         self.n_pairs = int(self.offsets[n_query : n_query + 1].numpy()[0])
         if self.indices.shape[0] < max(self.n_pairs, 1):
             self.indices = wp.zeros(int(self.n_pairs * self.GROWTH) + 16, dtype=wp.int32, device=self.device)
-        wp.launch(compact, dim=n_query, inputs=[self.width, self.padded, self.offsets, self.indices], device=self.device)
+        launch_rows(compact, n_query, [self.width, self.padded, self.offsets, self.indices], self.device)
 
     def to_lists(self) -> list[np.ndarray]:
         """Host copy, one sorted index array per query point (for tests and probes)."""
