@@ -1,15 +1,18 @@
-"""Throughput benchmark of the full dry step: ``python -m warpsph.bench``.
+"""Throughput benchmark of the full step: ``python -m warpsph.bench``.
 
-For each size of a ladder of particle counts it builds an elastic block (fixed base, slip sides,
-free top, gravity), compiles the kernels by one warm-up step, times ``--steps`` steps, then runs a
-separate short profiled pass for the share of each solver stage. It prints a table and writes a
-JSON record (machine + one entry per size and scheme). docs/performance.md explains the numbers.
+For each size of a ladder of particle counts and each effect set (dry elastic, saturated,
+viscoplastic) it builds a block (fixed base, slip sides, free top, gravity), compiles the kernels
+by one warm-up step, times ``--steps`` steps, then runs a separate short profiled pass for the
+share of each solver stage. It prints a table and writes a JSON record (machine + one entry per
+size, effect set, scheme and CPU thread count). docs/performance.md explains the numbers.
 """
 
 from __future__ import annotations
 
 import argparse
+import dataclasses
 import json
+import math
 import os
 import platform
 import sys
@@ -20,13 +23,21 @@ import warp as wp
 
 import warpsph
 from warpsph.builder import build
+from warpsph.launching import cpu_threads, set_cpu_threads
 from warpsph.model import Model, State
-from warpsph.scene import Body, Boundary, Material, Scene, Simulation
+from warpsph.scene import Body, Boundary, Effects, Material, Scene, Simulation
 from warpsph.solver import Solver
 from warpsph.sph.neighbours import NeighbourList
 
 DEFAULT_SIZES = {2: (1024, 4096, 16384), 3: (512, 4096, 13824)}
 """Default particle-count ladders per dimension (128 × 128 = 16 384 is the 2D reference size)."""
+LADDER_SIZES = {2: (4096, 16384, 65536), 3: (4096, 16384, 32768)}
+"""``--ladder`` sizes per dimension (with every effect set)."""
+QUICK_SIZES, QUICK_STEPS = (64, 256), 3
+"""``--quick``: a smoke test of every code path in a few seconds."""
+STEP_BUDGET = {2: 2.0e6, 3: 0.5e6}
+"""Default timed steps per size: STEP_BUDGET[dim] particle-steps / particles, clamped to [10, 200]
+(fewer at large sizes; a 3D pair loop is ≈ 4× a 2D one)."""
 DX = 0.05
 """Particle spacing of every block [m] (so Δt is the same at every size)."""
 PROFILE_STEPS = 5
@@ -34,6 +45,21 @@ PROFILE_STEPS = 5
 TARGET = {"particles": 16384, "dim": 2, "precision": "float64", "particle_steps_per_second": 3.6e5}
 """Project target: PySPH 1.0b2's two-thread elastic scheme on these machines."""
 SOIL = Material(name="soil", density=1700.0, youngs_modulus=30.0e6, poisson_ratio=0.2)
+WATER = dict(porosity=0.3, grain_density=2000.0, water_density=1000.0, water_bulk_modulus=100.0e6)
+"""Pore-water constants of a saturated block (with SOIL's E = 30 MPa, ν = 0.2, ρ = 1700 kg/m³, the mixture)."""
+COHESION = 20.0e3
+"""Undrained strength c_u [Pa] of the viscoplastic block (von Mises, σ_Y = √3 c_u): the lower part of
+a 6.35 m block under gravity yields, so the plastic source does real work."""
+EFFECT_SETS = {
+    "dry": (Effects(), SOIL),
+    "saturated": (Effects(pore_water=True), dataclasses.replace(SOIL, **WATER, hydraulic_conductivity=1.0e-3)),
+    "viscoplastic": (Effects(plasticity=True),
+                     dataclasses.replace(SOIL, model="viscoplastic", yield_function="von_mises", cohesion=COHESION,
+                                         fluidity=10.0, reference_stress=math.sqrt(3.0) * COHESION)),
+}  # fmt: skip
+"""Effect set name -> (effects, material): dry elastic, saturated (pore_water, CG projection,
+k_h = 1e-3 m/s) and viscoplastic (plasticity, von Mises, Perzyna γ = 10 1/s). Only the two-set
+scheme has the effects; the collocated baseline runs dry only."""
 
 
 # -- scene ----------------------------------------------------------------------------------------
@@ -45,8 +71,10 @@ def block_shape(n: int, dim: int) -> tuple[int, ...]:
 
 
 def block_scene(n: int, dim: int = 2, scheme: str = "two_set", integrator: str = "rk4",
-                precision: str = "float64") -> Scene:  # fmt: skip
-    """Elastic block of about ``n`` particles at spacing DX: fixed base y = 0, slip sides, free top."""
+                precision: str = "float64", effects: str = "dry") -> Scene:  # fmt: skip
+    """Block of about ``n`` particles at spacing DX [m] of the EFFECT_SETS material ``effects``:
+    fixed base y = 0, slip (impermeable) sides, free (drained) top, gravity."""
+    fx, soil = EFFECT_SETS[effects]
     shape = block_shape(n, dim)
     size = [(k - 1) * DX for k in shape] + [0.0] * (3 - dim)
     sides = [Boundary("base", "fixed", "y", 0.0, "min")]
@@ -55,9 +83,9 @@ def block_scene(n: int, dim: int = 2, scheme: str = "two_set", integrator: str =
                   Boundary(f"{axis}_max", "slip", axis, length, "max")]  # fmt: skip
     sim = Simulation(dim=dim, dx=DX, smoothing_ratio=1.3, scheme=scheme, integrator=integrator,
                      gravity=(0.0, -9.81, 0.0), precision=precision)  # fmt: skip
-    body = Body(name="block", material=SOIL.name, min=(0.0, 0.0, 0.0), max=tuple(size))
-    return Scene(name=f"bench_block_{dim}d_{n}", simulation=sim, materials={SOIL.name: SOIL}, bodies=[body],
-                 boundaries=sides).validate()  # fmt: skip
+    body = Body(name="block", material=soil.name, min=(0.0, 0.0, 0.0), max=tuple(size))
+    return Scene(name=f"bench_block_{dim}d_{n}_{effects}", simulation=sim, effects=fx,
+                 materials={soil.name: soil}, bodies=[body], boundaries=sides).validate()  # fmt: skip
 
 
 # -- object walking: arrays and neighbour lists -------------------------------------------------------
@@ -127,9 +155,17 @@ def stage_profile(model: Model, states: list[State], dt: float, steps: int) -> d
     return {name: sec / steps for name, sec in solver.stage_seconds.items()}
 
 
-def bench_size(n: int, scheme: str, args) -> dict:
-    """Build, warm up, time and profile one block of about ``n`` particles; the result record."""
-    scene = block_scene(n, args.dim, scheme, args.integrator, args.precision)
+def default_steps(n: int, dim: int) -> int:
+    """Timed steps for about ``n`` particles: STEP_BUDGET[dim] / n in [10, 200]."""
+    return int(min(200, max(10, round(STEP_BUDGET[dim] / n))))
+
+
+def bench_size(n: int, scheme: str, effects: str, threads: int, args) -> dict:
+    """Build, warm up, time and profile one block of about ``n`` particles with ``threads`` CPU
+    threads; the result record."""
+    set_cpu_threads(threads)
+    steps = args.steps or default_steps(n, args.dim)
+    scene = block_scene(n, args.dim, scheme, args.integrator, args.precision, effects)
     (model, state), build_s = timed(build, scene, args.device, args.precision)
     states = [state, model.state()]
     dt = scene.time_step
@@ -137,15 +173,17 @@ def bench_size(n: int, scheme: str, args) -> dict:
     _, compile_s = timed(advance, solver, states, 1, dt)
     states[1].assign(state)
     wp.synchronize_device(model.device)
-    states, wall = timed(advance, solver, states, args.steps, dt)
+    states, wall = timed(advance, solver, states, steps, dt)
     pairs = neighbour_pairs(solver)
-    stage = stage_profile(model, states, dt, min(args.steps, PROFILE_STEPS))
+    stage = stage_profile(model, states, dt, min(steps, PROFILE_STEPS))
     memory = memory_bytes(model, states, solver)
     total_stage = sum(stage.values())
     particles = model.particle_count
     return {
         "requested": n,
         "scheme": model.spec.scheme,
+        "effects": effects,
+        "threads": threads if wp.get_device(args.device).is_cpu else None,
         "dim": model.spec.dim,
         "precision": model.spec.precision,
         "integrator": model.spec.integrator,
@@ -154,9 +192,9 @@ def bench_size(n: int, scheme: str, args) -> dict:
         "virtual_points": model.virtual_count,
         "ghost_particles": model.particle_ghost_count,
         "virtual_ghosts": model.virtual_ghost_count,
-        **timing_fields(particles, args.steps, dt, build_s, compile_s, wall),
+        **timing_fields(particles, steps, dt, build_s, compile_s, wall),
         "neighbour_pairs_per_step": pairs,
-        "neighbour_interactions_per_second": pairs * args.steps / wall,
+        "neighbour_interactions_per_second": pairs * steps / wall,
         "stage_seconds_per_step": stage,
         "stage_share": {name: sec / total_stage for name, sec in stage.items()},
         "memory_bytes": memory,
@@ -192,6 +230,8 @@ def machine_record(device: str) -> dict:
 
 COLUMNS = (
     ("scheme", "{scheme}"),
+    ("effects", "{effects}"),
+    ("threads", "{threads}"),
     ("particles", "{particles:d}"),
     ("virtual", "{virtual_points:d}"),
     ("steps", "{steps:d}"),
@@ -224,20 +264,21 @@ def throughput_table(results: list[dict]) -> str:
 def stage_table(results: list[dict]) -> str:
     """Per-stage share of the step time [%] of results of one scheme, one row per size."""
     names = list(dict.fromkeys(s for r in results for s in r["stage_share"]))
-    rows = [[r["scheme"], str(r["particles"]), *(f"{100 * r['stage_share'].get(s, 0.0):.1f}" for s in names)]
-            for r in results]  # fmt: skip
-    return markdown_table(["scheme", "particles", *(f"{s} %" for s in names)], rows)
+    rows = [[r["scheme"], r["effects"], str(r["threads"]), str(r["particles"]),
+             *(f"{100 * r['stage_share'].get(s, 0.0):.1f}" for s in names)] for r in results]  # fmt: skip
+    return markdown_table(["scheme", "effects", "threads", "particles", *(f"{s} %" for s in names)], rows)
 
 
 def target_line(results: list[dict]) -> str | None:
     """How the reference row compares with the project target, when this run has one."""
+    lines = []
     for r in results:
-        if all(r[k] == TARGET[k] for k in ("particles", "dim", "precision")):
+        if all(r[k] == TARGET[k] for k in ("particles", "dim", "precision")) and r["effects"] == "dry":
             ratio = r["particle_steps_per_second"] / TARGET["particle_steps_per_second"]
-            return (f"target: {TARGET['particle_steps_per_second']:.2g} particle-steps/s at {TARGET['particles']} "
-                    f"particles (2D, float64); {r['scheme']} measured {r['particle_steps_per_second']:.3g} "
-                    f"= {ratio:.2f} × target")  # fmt: skip
-    return None
+            lines.append(f"target: {TARGET['particle_steps_per_second']:.2g} particle-steps/s at {TARGET['particles']} "
+                         f"particles (2D, float64, dry); {r['scheme']} with {r['threads']} thread(s) measured "
+                         f"{r['particle_steps_per_second']:.3g} = {ratio:.2f} × target")  # fmt: skip
+    return "\n".join(lines) or None
 
 
 # -- command line -----------------------------------------------------------------------------------
@@ -251,11 +292,26 @@ def parse_args(argv: list[str] | None) -> argparse.Namespace:
     p.add_argument("--scheme", choices=("two_set", "collocated", "both"), default="two_set")
     p.add_argument("--precision", choices=("float32", "float64"), default="float64")
     p.add_argument("--integrator", choices=("rk2", "rk4"), default="rk4")
-    p.add_argument("--steps", type=int, default=200, help="timed steps per size")
+    p.add_argument("--effects", nargs="+", choices=tuple(EFFECT_SETS), default=["dry"],
+                   help="effect sets (saturated and viscoplastic: two_set only)")
+    p.add_argument("--threads", type=int, nargs="+", default=[cpu_threads()],
+                   help="CPU threads of the row launches; several values compare them in one run")
+    p.add_argument("--steps", type=int, default=None,
+                   help="timed steps per size (default: 2e6 (2D) or 5e5 (3D) / particles, in [10, 200])")
+    p.add_argument("--ladder", action="store_true",
+                   help="every effect set at the ladder sizes (2D: 4096 16384 65536; 3D: 4096 16384 32768)")
+    p.add_argument("--quick", action="store_true", help=f"sizes {QUICK_SIZES}, {QUICK_STEPS} steps (a smoke test)")
     p.add_argument("--json", type=Path, default=Path("bench_results.json"), help="where to write the results")
     args = p.parse_args(argv)
-    if args.steps < 1 or any(n < 4 for n in args.sizes or [4]):
+    if args.ladder:
+        args.sizes = args.sizes or list(LADDER_SIZES[args.dim])
+        args.effects = list(EFFECT_SETS)
+    if args.quick:
+        args.sizes, args.steps = list(QUICK_SIZES), QUICK_STEPS
+    if (args.steps is not None and args.steps < 1) or any(n < 4 for n in args.sizes or [4]):
         p.error("--steps must be >= 1 and every size >= 4")
+    if any(t < 1 for t in args.threads):
+        p.error("--threads must be >= 1")
     args.sizes = args.sizes or list(DEFAULT_SIZES[args.dim])
     return args
 
@@ -267,18 +323,27 @@ def main(argv: list[str] | None = None) -> int:
         print(f"warpsph.bench: error: --device {args.device}: no CUDA device is available", file=sys.stderr)
         return 2
     machine = machine_record(args.device)
+    steps = args.steps or f"{STEP_BUDGET[args.dim]:g}/N in [10, 200]"
     print(f"{machine['device_name']} ({machine['cpu']}, {machine['cpu_count']} CPUs), warp {machine['warp_version']}, "
-          f"{args.dim}D, {args.precision}, {args.integrator}, {args.steps} steps per size")  # fmt: skip
+          f"{args.dim}D, {args.precision}, {args.integrator}, {steps} steps per size")  # fmt: skip
     schemes = ("two_set", "collocated") if args.scheme == "both" else (args.scheme,)
+    cases = [(s, e) for e in args.effects for s in schemes if s == "two_set" or e == "dry"]
     results = []
-    for scheme in schemes:
-        for n in args.sizes:
-            results.append(bench_size(n, scheme, args))
-            print(f"  {scheme} {results[-1]['particles']} particles: {results[-1]['wall_seconds']:.2f} s", flush=True)
+    threads_before = cpu_threads()
+    try:
+        for scheme, effects in cases:
+            for n in args.sizes:
+                for threads in args.threads:
+                    r = bench_size(n, scheme, effects, threads, args)
+                    results.append(r)
+                    print(f"  {scheme} {effects} {r['particles']} particles, {threads} thread(s): "
+                          f"{r['wall_seconds']:.2f} s", flush=True)  # fmt: skip
+    finally:
+        set_cpu_threads(threads_before)
     print("\n" + throughput_table(results))
-    for scheme in schemes:
-        rows = [r for r in results if r["scheme"] == scheme]
-        print(f"\nstage share of the step time ({scheme}):\n" + stage_table(rows))
+    for scheme, effects in cases:
+        rows = [r for r in results if (r["scheme"], r["effects"]) == (scheme, effects)]
+        print(f"\nstage share of the step time ({scheme}, {effects}):\n" + stage_table(rows))
     line = target_line(results)
     if line:
         print("\n" + line)

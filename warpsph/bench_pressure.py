@@ -20,7 +20,7 @@ from pathlib import Path
 import numpy as np
 import warp as wp
 
-from warpsph.bench import (DX, SOIL, block_shape, machine_record, markdown_table, memory_bytes, timed,
+from warpsph.bench import (DX, SOIL, WATER, block_shape, machine_record, markdown_table, memory_bytes, timed,
                            timing_fields, write_record)  # fmt: skip
 from warpsph.builder import build
 from warpsph.model import Model, State
@@ -34,8 +34,6 @@ SOLVERS = ("jacobi", "cg")
 LOAD = 10.0e3
 """Pressure step on the top face [Pa]."""
 STAGE = "pressure_projection"
-WATER = dict(porosity=0.3, grain_density=2000.0, water_density=1000.0, water_bulk_modulus=100.0e6)
-"""Pore-water constants of the layer (with SOIL's E = 30 MPa, ν = 0.2, ρ = 1700 kg/m³, the mixture)."""
 
 
 # -- scene ----------------------------------------------------------------------------------------

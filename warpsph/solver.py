@@ -14,7 +14,7 @@ from dataclasses import dataclass
 
 import warp as wp
 
-from warpsph.launching import launch
+from warpsph.launching import launch, launch_rows
 from warpsph.model import Model, State
 from warpsph.sph.neighbours import NeighbourList
 from warpsph.stages.boundaries import Boundaries
@@ -107,7 +107,7 @@ class Solver:
         real = m.spec.real
         half_step, _ = taylor_kernels(m.spec)
         nl = self.virtual_to_real
-        launch(half_step, m.virtual_count,
+        launch_rows(half_step, m.virtual_count,
                [real(m.h), real(dt), m.spec.vec3(*m.gravity), real(m.scene.simulation.free_surface_threshold),
                 nl.offsets, nl.indices, si.particle_q, m.particle_mass, si.particle_density, si.particle_v,
                 si.particle_stress, *self.real_fits.arrays(), si.virtual_q, si.virtual_density, m.virtual_material,
@@ -129,7 +129,7 @@ class Solver:
         real = m.spec.real
         _, full_step = taylor_kernels(m.spec)
         nl = self.real_to_virtual
-        launch(full_step, m.particle_count,
+        launch_rows(full_step, m.particle_count,
                [real(m.h), real(dt), m.spec.vec3(*m.gravity), real(m.scene.simulation.free_surface_threshold),
                 real(m.scene.simulation.artificial_viscosity), nl.offsets, nl.indices, si.virtual_q,
                 m.virtual_mass, si.virtual_density, self.virtual_v, self.virtual_stress,
@@ -197,7 +197,7 @@ class Solver:
                 self.boundaries.set_time(t + c_coef[i] * dt)
                 self.boundaries.update_real_ghosts(si.particle_q, self.stage_v, self.stage_stress,
                                                    self.stage_density)  # fmt: skip
-            launch(rates, n,
+            launch_rows(rates, n,
                    [real(m.h), real(sim.artificial_viscosity), m.spec.vec3(*m.gravity),
                     real(sim.free_surface_threshold), nl.offsets, nl.indices, si.particle_q, self.stage_v,
                     self.stage_stress, self.stage_density, m.particle_mass, m.particle_material,

@@ -12,6 +12,7 @@ import functools
 import numpy as np
 import warp as wp
 
+from warpsph.launching import launch_rows
 from warpsph.sph.spec import Spec
 
 
@@ -20,49 +21,54 @@ def _kernels(spec: Spec):
     real, vec3 = spec.real, spec.vec3
 
     @wp.kernel(enable_backward=False, module="unique")
-    def count(
+    def gather(
+        first: int,
         grid: wp.uint64,
         query: wp.array(dtype=vec3),
         source: wp.array(dtype=vec3),
         radius: real,
         same_set: int,
+        width: int,
         counts: wp.array(dtype=wp.int32),
+        padded: wp.array(dtype=wp.int32),
+        overflow: wp.array(dtype=wp.int32),
     ):
-        a = wp.tid()
+        """One query pass (a row kernel): the neighbour count of every query point and its first
+        ``width`` neighbours in row ``a`` of the padded table; ``overflow[0]`` = 1 where a count
+        exceeds ``width`` (the only value any row stores there, so concurrent rows cannot race)."""
+        a = first + wp.tid()
         x = query[a]
         n = int(0)
+        row = a * width
         r2 = radius * radius
         for b in wp.hash_grid_query(grid, x, radius):
             if same_set == 1 and b == a:
                 continue
             d = source[b] - x
             if wp.dot(d, d) < r2:
+                if n < width:
+                    padded[row + n] = b
                 n += 1
         counts[a] = n
+        if n > width:
+            overflow[0] = 1
 
     @wp.kernel(enable_backward=False, module="unique")
-    def fill(
-        grid: wp.uint64,
-        query: wp.array(dtype=vec3),
-        source: wp.array(dtype=vec3),
-        radius: real,
-        same_set: int,
+    def compact(
+        first: int,
+        width: int,
+        padded: wp.array(dtype=wp.int32),
         offsets: wp.array(dtype=wp.int32),
         indices: wp.array(dtype=wp.int32),
     ):
-        a = wp.tid()
-        x = query[a]
-        k = offsets[a]
-        r2 = radius * radius
-        for b in wp.hash_grid_query(grid, x, radius):
-            if same_set == 1 and b == a:
-                continue
-            d = source[b] - x
-            if wp.dot(d, d) < r2:
-                indices[k] = b
-                k += 1
+        """Copy row ``a`` of the padded table to its CSR place (a row kernel)."""
+        a = first + wp.tid()
+        start = offsets[a]
+        row = a * width
+        for k in range(offsets[a + 1] - start):
+            indices[start + k] = padded[row + k]
 
-    return count, fill
+    return gather, compact
 
 
 def grid_dims(extent: np.ndarray, cell: float, dim: int, max_cells: int = 256) -> tuple[int, int, int]:
@@ -80,7 +86,16 @@ class NeighbourList:
 
     ``offsets`` (n_query + 1,) int32 and ``indices`` (n_pairs,) int32: the neighbours of query
     point a are ``indices[offsets[a]:offsets[a+1]]``, in hash-grid cell order.
+
+    A build makes one hash-grid query pass: it stores up to ``width`` neighbours per query point
+    in a padded (n_query, width) table while counting them, then scans the counts and compacts the
+    table into CSR. ``width`` adapts: when a point has more neighbours than the table holds (on
+    the first build, and whenever the particles crowd), the table grows to 1.25 × the largest
+    count and the query pass is repeated.
     """
+
+    GROWTH = 1.25
+    """Headroom of the padded table over the largest neighbour count seen [-]."""
 
     def __init__(self, spec: Spec, extent: np.ndarray, radius: float, device, same_set: bool = False):
         self.spec = spec
@@ -92,12 +107,18 @@ class NeighbourList:
         self.offsets = wp.zeros(1, dtype=wp.int32, device=device)
         self.counts = wp.zeros(1, dtype=wp.int32, device=device)
         self.indices = wp.zeros(1, dtype=wp.int32, device=device)
+        self.width = 0
+        """Neighbours per row of the padded table [-]."""
+        self.padded = wp.zeros(1, dtype=wp.int32, device=device)
+        """(n_query × width,) int32 padded neighbour table of the last query pass."""
+        self.overflow = wp.zeros(1, dtype=wp.int32, device=device)
+        """(1,) int32 1 where the last query pass found more neighbours than ``width``."""
         self.n_query = 0
         self.n_pairs = 0
 
     def build(self, query: wp.array, n_query: int, source: wp.array, n_source: int) -> None:
         """Find the neighbours of ``query[:n_query]`` among ``source[:n_source]``."""
-        count, fill = _kernels(self.spec)
+        gather, compact = _kernels(self.spec)
         real = self.spec.real
         src = source[:n_source]
         self.grid.build(src, real(self.radius))
@@ -109,13 +130,20 @@ class NeighbourList:
             self.n_pairs = 0
             return
         args = [wp.uint64(self.grid.id), query, src, real(self.radius), int(self.same_set)]
-        wp.launch(count, dim=n_query, inputs=[*args, self.counts], device=self.device)
+        while True:
+            if self.padded.shape[0] < n_query * self.width:
+                self.padded = wp.empty(n_query * self.width, dtype=wp.int32, device=self.device)
+            self.overflow.zero_()
+            launch_rows(gather, n_query, [*args, self.width, self.counts, self.padded, self.overflow], self.device)
+            if not self.overflow.numpy()[0]:
+                break
+            self.width = int(self.counts.numpy()[:n_query].max() * self.GROWTH) + 1
         self.counts[n_query : n_query + 1].zero_()
         wp.utils.array_scan(self.counts[: n_query + 1], self.offsets[: n_query + 1], inclusive=False)
         self.n_pairs = int(self.offsets[n_query : n_query + 1].numpy()[0])
         if self.indices.shape[0] < max(self.n_pairs, 1):
-            self.indices = wp.zeros(int(self.n_pairs * 1.25) + 16, dtype=wp.int32, device=self.device)
-        wp.launch(fill, dim=n_query, inputs=[*args, self.offsets, self.indices], device=self.device)
+            self.indices = wp.zeros(int(self.n_pairs * self.GROWTH) + 16, dtype=wp.int32, device=self.device)
+        launch_rows(compact, n_query, [self.width, self.padded, self.offsets, self.indices], self.device)
 
     def to_lists(self) -> list[np.ndarray]:
         """Host copy, one sorted index array per query point (for tests and probes)."""

@@ -100,8 +100,13 @@ def operator_functions(spec: Spec):
     @wp.func
     def smallest_eigenvalue(M: mat33):
         """Smallest eigenvalue of sym(M) + unused axes (≈1 inside a body, ≈0.5 on its surface),
-        by the closed form for symmetric 3×3 matrices (trigonometric, no iteration)."""
+        by the closed form for symmetric 3×3 matrices (trigonometric, no iteration); in 2D that of
+        the x–y block (a quadratic's root) against the unused z axis's 1."""
         S = real(0.5) * (M + wp.transpose(M)) + unused
+        if wp.static(spec.dim == 2):
+            mean = real(0.5) * (S[0, 0] + S[1, 1])
+            dev = real(0.5) * (S[0, 0] - S[1, 1])
+            return wp.min(S[2, 2], mean - wp.sqrt(dev * dev + S[0, 1] * S[0, 1]))
         off = S[0, 1] * S[0, 1] + S[0, 2] * S[0, 2] + S[1, 2] * S[1, 2]
         q = wp.trace(S) / real(3.0)
         d0 = S[0, 0] - q

@@ -34,6 +34,7 @@ def collocated_kernels(spec: Spec):
 
     @wp.kernel(enable_backward=False, module="unique")
     def rates(
+        first: int,
         h: real,
         alpha: real,
         gravity: vec3,
@@ -54,7 +55,7 @@ def collocated_kernels(spec: Spec):
         ddensity: wp.array(dtype=real),
         surface_normal: wp.array(dtype=vec3),
     ):
-        a = wp.tid()
+        a = first + wp.tid()
         x = q[a]
         start = offsets[a]
         end = offsets[a + 1]

@@ -11,7 +11,7 @@ import functools
 
 import warp as wp
 
-from warpsph.launching import launch
+from warpsph.launching import launch, launch_rows
 from warpsph.model import Model
 from warpsph.sph.neighbours import NeighbourList
 from warpsph.sph.operators import operator_functions
@@ -25,6 +25,7 @@ def _kernels(spec: Spec):
 
     @wp.kernel(enable_backward=False, module="unique")
     def compute_fits(
+        first: int,
         h: real,
         offsets: wp.array(dtype=wp.int32),
         nbr: wp.array(dtype=wp.int32),
@@ -38,7 +39,7 @@ def _kernels(spec: Spec):
         fit_e: wp.array(dtype=vec3),
         fit_lambda: wp.array(dtype=real),
     ):
-        i = wp.tid()
+        i = first + wp.tid()
         c, inv_den, Minv, e, M, corrected = fit_operator(q[i], offsets[i], offsets[i + 1], nbr, src_q, src_mass,
                                                          src_density, h)  # fmt: skip
         fit_c[i] = c
@@ -107,7 +108,7 @@ def compute_fit_data(model: Model, neighbours: NeighbourList, q, n_owned: int, s
                      fits: FitData, ghost_source, ghost_planes, n_ghosts: int) -> None:  # fmt: skip
     """Fill ``fits`` for the owned query points ``q[:n_owned]`` and mirror them onto their ghosts."""
     compute_fits, mirror_fits = _kernels(model.spec)
-    launch(compute_fits, n_owned,
+    launch_rows(compute_fits, n_owned,
            [model.spec.real(model.h), neighbours.offsets, neighbours.indices, q, src_q, src_mass, src_density,
             *fits.arrays()], model.device)  # fmt: skip
     launch(mirror_fits, n_ghosts, [n_owned, ghost_source, ghost_planes, model.plane_axis, *fits.arrays()],

@@ -26,7 +26,7 @@ import warp as wp
 
 from warpsph.errors import SimulationError
 from warpsph.builder import EXTENT_TOLERANCE
-from warpsph.launching import launch
+from warpsph.launching import launch, launch_rows
 from warpsph.model import Model
 from warpsph.sph.kernels import kernel_derivative
 from warpsph.sph.operators import operator_functions
@@ -128,12 +128,12 @@ def _kernels(spec: Spec):
 
     @wp.kernel(enable_backward=False, module="unique")
     def fit_vector_at_virtual(
-        h: real, offsets: wp.array(dtype=wp.int32), nbr: wp.array(dtype=wp.int32), vq: wp.array(dtype=vec3),
+        first: int, h: real, offsets: wp.array(dtype=wp.int32), nbr: wp.array(dtype=wp.int32), vq: wp.array(dtype=vec3),
         c: wp.array(dtype=vec3), inv_den: wp.array(dtype=real), minv: wp.array(dtype=wp.types.matrix((3, 3), real)),
         xs: wp.array(dtype=vec3), ms: wp.array(dtype=real), rhos: wp.array(dtype=real), values: wp.array(dtype=vec3),
         out: wp.array(dtype=vec3),
     ):  # fmt: skip
-        i = wp.tid()
+        i = first + wp.tid()
         x = vq[i]
         acc = vec3(real(0.0), real(0.0), real(0.0))
         for k in range(offsets[i], offsets[i + 1]):
@@ -144,12 +144,12 @@ def _kernels(spec: Spec):
 
     @wp.kernel(enable_backward=False, module="unique")
     def fit_scalar_at_virtual(
-        h: real, offsets: wp.array(dtype=wp.int32), nbr: wp.array(dtype=wp.int32), vq: wp.array(dtype=vec3),
+        first: int, h: real, offsets: wp.array(dtype=wp.int32), nbr: wp.array(dtype=wp.int32), vq: wp.array(dtype=vec3),
         c: wp.array(dtype=vec3), inv_den: wp.array(dtype=real), minv: wp.array(dtype=wp.types.matrix((3, 3), real)),
         xs: wp.array(dtype=vec3), ms: wp.array(dtype=real), rhos: wp.array(dtype=real), values: wp.array(dtype=f64),
         out: wp.array(dtype=f64),
     ):  # fmt: skip
-        i = wp.tid()
+        i = first + wp.tid()
         x = vq[i]
         acc = zero
         for k in range(offsets[i], offsets[i + 1]):
@@ -160,12 +160,12 @@ def _kernels(spec: Spec):
 
     @wp.kernel(enable_backward=False, module="unique")
     def divergence_at_real(
-        h: real, offsets: wp.array(dtype=wp.int32), nbr: wp.array(dtype=wp.int32), q: wp.array(dtype=vec3),
+        first: int, h: real, offsets: wp.array(dtype=wp.int32), nbr: wp.array(dtype=wp.int32), q: wp.array(dtype=vec3),
         c: wp.array(dtype=vec3), inv_den: wp.array(dtype=real), minv: wp.array(dtype=wp.types.matrix((3, 3), real)),
         e: wp.array(dtype=vec3), xs: wp.array(dtype=vec3), ms: wp.array(dtype=real), rhos: wp.array(dtype=real),
         values: wp.array(dtype=vec3), out: wp.array(dtype=f64),
     ):  # fmt: skip
-        a = wp.tid()
+        a = first + wp.tid()
         x = q[a]
         fit = vec3(real(0.0), real(0.0), real(0.0))
         div = zero
@@ -179,13 +179,13 @@ def _kernels(spec: Spec):
 
     @wp.kernel(enable_backward=False, module="unique")
     def gradient_at_real(
-        h: real, offsets: wp.array(dtype=wp.int32), nbr: wp.array(dtype=wp.int32), q: wp.array(dtype=vec3),
+        first: int, h: real, offsets: wp.array(dtype=wp.int32), nbr: wp.array(dtype=wp.int32), q: wp.array(dtype=vec3),
         c: wp.array(dtype=vec3), inv_den: wp.array(dtype=real), minv: wp.array(dtype=wp.types.matrix((3, 3), real)),
         e: wp.array(dtype=vec3), xs: wp.array(dtype=vec3), ms: wp.array(dtype=real), rhos: wp.array(dtype=real),
         values: wp.array(dtype=f64), out: wp.array(dtype=wp.vec3d),
     ):  # fmt: skip
         """∇f at real particles fitted from the virtual points' f."""
-        a = wp.tid()
+        a = first + wp.tid()
         x = q[a]
         fit = zero
         grad = wp.vec3d(zero, zero, zero)
@@ -234,7 +234,7 @@ def _kernels(spec: Spec):
 
     @wp.kernel(enable_backward=False, module="unique")
     def assemble(
-        h: real, dt: real, scale: f64, n: int, offsets: wp.array(dtype=wp.int32), nbr: wp.array(dtype=wp.int32),
+        first: int, h: real, dt: real, scale: f64, n: int, offsets: wp.array(dtype=wp.int32), nbr: wp.array(dtype=wp.int32),
         q: wp.array(dtype=vec3), origin: wp.array(dtype=vec3), mass: wp.array(dtype=real),
         density: wp.array(dtype=real), material: wp.array(dtype=wp.int32), permeability: wp.array(dtype=f64), inv_biot: wp.array(dtype=f64),
         water_density: wp.array(dtype=f64), gravity: vec3, v_star: wp.array(dtype=vec3),
@@ -246,7 +246,7 @@ def _kernels(spec: Spec):
         face_factor: wp.array(dtype=f64), weight: wp.array(dtype=f64), column: wp.array(dtype=wp.int32), sign: wp.array(dtype=f64),
         diag: wp.array(dtype=f64), rhs: wp.array(dtype=f64),
     ):  # fmt: skip
-        a = wp.tid()
+        a = first + wp.tid()
         if dirichlet[a] == 1:
             diag[a] = f64(1.0)
             rhs[a] = value[a]
@@ -481,13 +481,13 @@ class PressureProjection:
         sol.boundaries.update_real_ghosts(si.particle_q, so.particle_v, so.particle_stress, so.particle_density,
                                           si.particle_pore_pressure)
         nl_v = sol.virtual_to_real
-        launch(self.k["fit_vector_at_virtual"], m.virtual_count,
+        launch_rows(self.k["fit_vector_at_virtual"], m.virtual_count,
                [h, nl_v.offsets, nl_v.indices, si.virtual_q, vf.c, vf.inv_den, vf.minv, si.particle_q,
                 m.particle_mass, si.particle_density, so.particle_v, self.virtual_v_star], dev)  # fmt: skip
         sol.boundaries.update_virtual_ghosts(si.virtual_q, self.virtual_v_star, sol.virtual_stress,
                                              si.virtual_density, sol.virtual_p)  # fmt: skip
         nl_r = sol.real_to_virtual
-        launch(self.k["divergence_at_real"], n,
+        launch_rows(self.k["divergence_at_real"], n,
                [h, nl_r.offsets, nl_r.indices, si.particle_q, rf.c, rf.inv_den, rf.minv, rf.e, si.virtual_q,
                 m.virtual_mass, si.virtual_density, self.virtual_v_star, self.div_v_star], dev)  # fmt: skip
         # assemble on the real-real list
@@ -505,7 +505,7 @@ class PressureProjection:
                 m.particle_material, pw.material_water_density, gravity, wp.float64(pw.water_table), self.dirichlet,
                 self.value], dev)  # fmt: skip
         args = self._plane_args()
-        launch(self.k["assemble"], n,
+        launch_rows(self.k["assemble"], n,
                [h, real(dt), wp.float64(self.scale), n, nl.offsets, nl.indices, si.particle_q, m.particle_origin,
                 m.particle_mass,
                 si.particle_density, m.particle_material, pw.material_permeability, pw.material_inv_biot,
@@ -539,11 +539,11 @@ class PressureProjection:
         h, dev = m.spec.real(m.h), m.device
         rf, vf = sol.real_fits, sol.virtual_fits
         nl_v, nl_r = sol.virtual_to_real, sol.real_to_virtual
-        launch(self.k["fit_scalar_at_virtual"], m.virtual_count,
+        launch_rows(self.k["fit_scalar_at_virtual"], m.virtual_count,
                [h, nl_v.offsets, nl_v.indices, state.virtual_q, vf.c, vf.inv_den, vf.minv, state.particle_q,
                 m.particle_mass, state.particle_density, values, self.virtual_dp], dev)  # fmt: skip
         self.update_ghosts(state.virtual_q, self.virtual_dp, homogeneous=homogeneous, virtual=True)
-        launch(self.k["gradient_at_real"], m.particle_count,
+        launch_rows(self.k["gradient_at_real"], m.particle_count,
                [h, nl_r.offsets, nl_r.indices, state.particle_q, rf.c, rf.inv_den, rf.minv, rf.e, state.virtual_q,
                 m.virtual_mass, state.virtual_density, self.virtual_dp, self.grad], dev)  # fmt: skip
 

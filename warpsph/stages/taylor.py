@@ -108,6 +108,7 @@ def taylor_kernels(spec: Spec):
 
     @wp.kernel(enable_backward=False, module="unique", name=f"half_step{variant}" if plasticity else None)
     def half_step(
+        first: int,
         h: real,
         dt: real,
         gravity: vec3,
@@ -144,7 +145,7 @@ def taylor_kernels(spec: Spec):
         real_plastic_strain: wp.array(dtype=real),
         plastic_material: wp.array(dtype=PlasticMaterial),
     ):
-        i = wp.tid()
+        i = first + wp.tid()
         x = virt_q[i]
         v, s, G, div, p = fit_fields(x, offsets[i], offsets[i + 1], nbr, real_q, real_mass, real_density, real_v,
                                      real_stress, h, virt_fit_c[i], virt_fit_inv_den[i], virt_fit_minv[i],
@@ -174,6 +175,7 @@ def taylor_kernels(spec: Spec):
 
     @wp.kernel(enable_backward=False, module="unique", name=f"full_step{variant}" if plasticity else None)
     def full_step(
+        first: int,
         h: real,
         dt: real,
         gravity: vec3,
@@ -213,7 +215,7 @@ def taylor_kernels(spec: Spec):
         plastic_material: wp.array(dtype=PlasticMaterial),
         plastic_strain_out: wp.array(dtype=real),
     ):
-        a = wp.tid()
+        a = first + wp.tid()
         x = q[a]
         v_half, s_half, G, div, p = fit_fields(x, offsets[a], offsets[a + 1], nbr, virt_q, virt_mass, virt_density,
                                             virt_v_half, virt_stress_half, h, real_fit_c[a], real_fit_inv_den[a],

@@ -1,8 +1,8 @@
 """Running the cases of studies through dask.distributed, one JSON record per finished run.
 
 Each run is :func:`run_case`, a function of (scene text, overrides, metric, device) alone, so the
-runs go to any Dask cluster unchanged: a ``LocalCluster`` of one single-threaded worker process
-per core by default, or the scheduler at an address. Records are written by the client, atomically,
+runs go to any Dask cluster unchanged: a ``LocalCluster`` of one worker process per core by
+default (each run's row launches on cores ÷ workers threads), or the scheduler at an address. Records are written by the client, atomically,
 to ``<study out>/runs/<case id>.json``; a study started again skips the cases that have one.
 """
 
@@ -98,14 +98,17 @@ class StudyOutcome:
 @contextmanager
 def dask_client(scheduler: str | None, workers: int | None):
     """A client of the scheduler at ``scheduler``, or of a LocalCluster of ``workers`` processes
-    (default: one per core), one thread each (Warp's CPU kernels run on one thread)."""
+    (default: one per core), one Dask thread each, whose row launches share the cores evenly
+    (``WARPSPH_CPU_THREADS`` = cores // workers, so concurrent runs do not oversubscribe the CPU)."""
     from dask.distributed import Client, LocalCluster
 
     if scheduler:
         with Client(scheduler) as client:
             yield client
         return
-    with LocalCluster(n_workers=workers or os.cpu_count() or 1, threads_per_worker=1, processes=True,
+    n_workers = workers or os.cpu_count() or 1
+    env = {"WARPSPH_CPU_THREADS": str(max(1, (os.cpu_count() or 1) // n_workers))}
+    with LocalCluster(n_workers=n_workers, threads_per_worker=1, processes=True, env=env,
                       dashboard_address=":0") as cluster, Client(cluster) as client:  # fmt: skip  (any free port)
         yield client
 
