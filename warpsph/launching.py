@@ -31,6 +31,8 @@ def _default_threads() -> int:
 
 _threads = _default_threads()
 _pool: ThreadPoolExecutor | None = None
+_loaded: set = set()
+"""(kernel, device) pairs launched before: their modules are loaded, so threads may share them."""
 
 
 def cpu_threads() -> int:
@@ -70,8 +72,9 @@ def launch_rows(kernel, rows: int, inputs: list, device) -> None:
         return
     _record(kernel)
     chunks = 1
-    if wp.get_device(device).is_cpu:
+    if wp.get_device(device).is_cpu and (kernel, str(device)) in _loaded:
         chunks = max(1, min(_threads, rows // MIN_ROWS_PER_THREAD))
+    _loaded.add((kernel, str(device)))  # the first launch loads (or compiles) the module: one thread
     if chunks == 1:
         wp.launch(kernel, dim=rows, inputs=[0, *inputs], device=device)
         return
