@@ -234,9 +234,15 @@ def taylor_kernels(spec: Spec):
             plastic_strain_out[a] = plastic_strain[a] + d_eps
         else:
             s_new = s + dt * hooke_rate(d, lam[mat], shear[mat]) + source_increment(s, spin, dt)
+        body_force = gravity
+        if wp.static(pore_water):
+            body_force = gravity * (one - real(water_density[mat]) / rho)
         visc = vec3(zero, zero, zero)
         if alpha > zero:
-            va = v[a]
+            # the particle's own velocity brought to t^{n+½}, the virtual points' time level: against
+            # vⁿ the relative velocity would carry −Δt/2 times the acceleration, a drag proportional
+            # to it (measured: the wave front 6 % fast with α = 0.2, at every spacing)
+            va = v[a] + half * dt * (div / rho + body_force)
             ca = wave_speed[mat]
             for k in range(offsets[a], offsets[a + 1]):
                 i = nbr[k]
@@ -246,9 +252,6 @@ def taylor_kernels(spec: Spec):
                     mu = h * vr / (wp.dot(xai, xai) + real(0.01) * h * h)
                     rbar = half * (rho + virt_density[i])
                     visc += (virt_mass[i] * alpha * ca * mu / rbar) * grad_W(xai, h)
-        body_force = gravity
-        if wp.static(pore_water):
-            body_force = gravity * (one - real(water_density[mat]) / rho)
         v_out[a] = v[a] + dt * (div / rho + body_force + visc)
         stress_out[a] = s_new
         q_out[a] = x + dt * v_half
