@@ -19,7 +19,7 @@ from warpsph.model import PLANE_FIXED, PLANE_SLIP, PLANE_TRACTION, PLANE_VELOCIT
 from warpsph.physics.plasticity import material_struct, viscoplastic_material
 from warpsph.pore_water import build_pore_water
 from warpsph.errors import SceneError
-from warpsph.scene import AXES, Scene
+from warpsph.scene import AXES, EXTENT_TOLERANCE, Scene
 from warpsph.sph.spec import Spec
 
 _BOUNDARY_KINDS = {"fixed": PLANE_FIXED, "slip": PLANE_SLIP, "symmetry": PLANE_SLIP, "free": PLANE_TRACTION,
@@ -28,8 +28,6 @@ GHOST_MARGIN = 0.25
 """Ghost band beyond the support radius 2h, as a fraction of 2h (room for small motions)."""
 ON_PLANE = 1.0e-6
 """A particle within this fraction of Δx of a plane lies on it."""
-EXTENT_TOLERANCE = 1.0e-6
-"""Load and drainage extents are grown by this fraction of Δx: a point on an edge is inside."""
 
 
 def _planes(scene: Scene):

@@ -48,6 +48,10 @@ class TimeFunction:
         raise ValueError(f"unknown time function kind {self.kind!r}")
 
 
+EXTENT_TOLERANCE = 1.0e-6
+"""Load and drainage extents are grown by this fraction of Δx: a point on an edge is inside."""
+
+
 @dataclass
 class Region:
     """Axis-aligned box [min, max] in metres; unused coordinates may be left at 0."""

@@ -25,9 +25,9 @@ import numpy as np
 import warp as wp
 
 from warpsph.errors import SimulationError
-from warpsph.builder import EXTENT_TOLERANCE
 from warpsph.launching import launch, launch_rows
 from warpsph.model import Model
+from warpsph.scene import EXTENT_TOLERANCE
 from warpsph.sph.kernels import kernel_derivative
 from warpsph.sph.operators import operator_functions
 from warpsph.sph.spec import Spec
