@@ -1,9 +1,9 @@
 """Scene → (Model, State): fills bodies with real particles and virtual stress points, lays out
 boundary planes and their mirror ghosts, and sets initial fields.
 
-Ghost layout is decided here, once, from the initial positions (small-deformation boundaries):
-for each plane in turn, every particle (owned or ghost of an earlier plane) within the support
-radius plus a margin is mirrored across it, so corners get ghosts of ghosts.
+The first ghost layout is planned here from the initial positions (``stages/ghost_layout.py``);
+with ``simulation.large_deformation`` the ghost arrays get room for the body to spread along its
+planes (one more ghost per point and plane, up to three planes), which the solver re-plans into.
 """
 
 from __future__ import annotations
@@ -21,13 +21,10 @@ from warpsph.pore_water import build_pore_water
 from warpsph.errors import SceneError
 from warpsph.scene import AXES, EXTENT_TOLERANCE, Scene
 from warpsph.sph.spec import Spec
+from warpsph.stages.ghost_layout import GHOST_MARGIN, ON_PLANE, plan_ghosts
 
 _BOUNDARY_KINDS = {"fixed": PLANE_FIXED, "slip": PLANE_SLIP, "symmetry": PLANE_SLIP, "free": PLANE_TRACTION,
                    "velocity": PLANE_VELOCITY}  # fmt: skip
-GHOST_MARGIN = 0.25
-"""Ghost band beyond the support radius 2h, as a fraction of 2h (room for small motions)."""
-ON_PLANE = 1.0e-6
-"""A particle within this fraction of Δx of a plane lies on it."""
 
 
 def _planes(scene: Scene):
@@ -58,24 +55,30 @@ def _merge_unique(point_sets: list[np.ndarray], dx: float) -> tuple[np.ndarray, 
     return np.asarray(points, dtype=float).reshape(-1, 3), np.asarray(owner, dtype=np.int32)
 
 
-def _ghost_plan(points: np.ndarray, planes, band: float, tol: float):
-    """Mirror ghosts of ``points`` across ``planes``: (positions, source index, plane chain)."""
-    pos = np.asarray(points, dtype=float).reshape(-1, 3)
-    src = np.arange(len(pos), dtype=np.int32)
-    chain = np.full((len(pos), 3), -1, dtype=np.int32)
-    n_owned = len(pos)
-    for p_idx, (_n, axis, position, sign, *_rest) in enumerate(planes):
-        depth = sign * (position - pos[:, axis])
-        sel = np.nonzero((depth > tol) & (depth <= band) & (chain[:, 2] < 0))[0]
-        mirrored = pos[sel].copy()
-        mirrored[:, axis] = 2.0 * position - mirrored[:, axis]
-        new_chain = chain[sel].copy()
-        slot = np.argmax(new_chain < 0, axis=1)
-        new_chain[np.arange(len(sel)), slot] = p_idx
-        pos = np.concatenate([pos, mirrored])
-        src = np.concatenate([src, src[sel]])
-        chain = np.concatenate([chain, new_chain])
-    return pos[n_owned:], src[n_owned:], chain[n_owned:]
+def _with_room(ghosts, points: np.ndarray, plane_count: int, large_deformation: bool):
+    """A ghost plan (positions, sources, chains) padded with unused slots for a large-deformation run:
+    one more ghost per point and plane, up to three (``plane_count`` + 1 for the virtual set, whose
+    regenerated points may outnumber the start's). Unused slots copy point 0 and mirror
+    across no plane; only the first len(plan) ghosts are live."""
+    if not large_deformation or not len(points):
+        return ghosts
+    pos, src, chain = ghosts
+    room = len(points) * min(plane_count, 3)
+    return (np.concatenate([pos, np.repeat(points[:1], room, axis=0)]),
+            np.concatenate([src, np.zeros(room, np.int32)]),
+            np.concatenate([chain, np.full((room, 3), -1, np.int32)]))  # fmt: skip
+
+
+def velocity_region_members(scene: Scene, points: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Indices of the ``points`` [m] inside the region of each velocity load, and that load's index
+    among the velocity loads."""
+    index, load = [], []
+    vel_loads = [ld for ld in scene.loads if ld.kind == "velocity"]
+    for k, ld in enumerate(vel_loads):
+        inside = np.nonzero(ld.region.contains(points, ON_PLANE * scene.simulation.dx))[0]
+        index.extend(inside.tolist())
+        load.extend([k] * len(inside))
+    return np.array(index, np.int32), np.array(load, np.int32)
 
 
 def _initial_velocity(body, points: np.ndarray) -> np.ndarray:
@@ -162,14 +165,17 @@ def build(scene: Scene, device: str = "cpu", precision: str | None = None) -> tu
         pore0[sel] = body.pore_pressure
 
     planes = _planes(scene)
-    g_pos, g_src, g_chain = _ghost_plan(real_pts, planes, band, tol)
+    mirrors = [(p[1], p[2], p[3]) for p in planes]
+    g_plan = plan_ghosts(real_pts, mirrors, band, tol)
+    g_pos, g_src, g_chain = _with_room(g_plan, real_pts, len(planes), sim.large_deformation)
 
     two_set = spec.scheme == "two_set"
     if two_set:
         virt_pts, virt_body = _merge_unique([fill_cells(b, dx, dim) for b in scene.bodies], dx)
     else:
         virt_pts, virt_body = np.zeros((0, 3)), np.zeros(0, dtype=np.int32)
-    vg_pos, vg_src, vg_chain = _ghost_plan(virt_pts, planes, band, tol)
+    vg_plan = plan_ghosts(virt_pts, mirrors, band, tol)
+    vg_pos, vg_src, vg_chain = _with_room(vg_plan, virt_pts, len(planes) + 1, sim.large_deformation)
     virt_density = np.array([mats[body_mat[b]].density for b in virt_body])
 
     # particles lying on planes get the plane's prescribed values
@@ -186,16 +192,8 @@ def build(scene: Scene, device: str = "cpu", precision: str | None = None) -> tu
         _check_drained_planes(scene, planes, on_plane, real_pts)
 
     vel_loads = [ld for ld in scene.loads if ld.kind == "velocity"]
-    def in_regions(points):
-        index, load = [], []
-        for k, ld in enumerate(vel_loads):
-            inside = np.nonzero(ld.region.contains(points, tol))[0]
-            index.extend(inside.tolist())
-            load.extend([k] * len(inside))
-        return np.array(index, np.int32), np.array(load, np.int32)
-
-    region_particle, region_load = in_regions(real_pts)
-    region_virtual, region_virtual_load = in_regions(virt_pts)
+    region_particle, region_load = velocity_region_members(scene, real_pts)
+    region_virtual, region_virtual_load = velocity_region_members(scene, virt_pts)
 
     all_pts = np.concatenate([real_pts, g_pos, virt_pts, vg_pos])
     extent = all_pts.max(axis=0) - all_pts.min(axis=0)
@@ -227,7 +225,7 @@ def build(scene: Scene, device: str = "cpu", precision: str | None = None) -> tu
         extent=extent,
         gravity=tuple(sim.gravity),
         particle_count=n,
-        particle_ghost_count=len(g_src),
+        particle_ghost_count=len(g_plan[1]),
         particle_mass=arr(ext(real_mass, g_src).astype(npr), real),
         particle_material=arr(ext(np.array([body_mat[b] for b in real_body], np.int32), g_src), wp.int32),
         particle_x0=real_pts.copy(),
@@ -235,9 +233,9 @@ def build(scene: Scene, device: str = "cpu", precision: str | None = None) -> tu
         particle_ghost_source=arr(g_src, wp.int32),
         particle_ghost_planes=arr(g_chain, wp.vec3i, (0, 3)),
         virtual_count=len(virt_pts),
-        virtual_ghost_count=len(vg_src),
+        virtual_ghost_count=len(vg_plan[1]),
         virtual_mass=arr(ext(virt_mass, vg_src).astype(npr), real),
-        virtual_origin=arr(virt_pts.astype(npr), vec3, (0, 3)),
+        virtual_origin=arr(np.concatenate([virt_pts, vg_pos]).astype(npr), vec3, (0, 3)),
         virtual_material=arr(ext(np.array([body_mat[b] for b in virt_body], np.int32), vg_src), wp.int32),
         virtual_ghost_source=arr(vg_src, wp.int32),
         virtual_ghost_planes=arr(vg_chain, wp.vec3i, (0, 3)),

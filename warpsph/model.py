@@ -41,6 +41,7 @@ class Model:
 
     particle_count: int
     particle_ghost_count: int
+    """Live ghosts (the first of the ghost slots; changes when a large-deformation run re-plans)."""
     particle_mass: wp.array
     """(N+G,) mass [kg] (ghosts copy their source)."""
     particle_material: wp.array
@@ -61,7 +62,8 @@ class Model:
     virtual_material: wp.array
     """(M+GV,) int32."""
     virtual_origin: wp.array
-    """(M,) vec3 initial positions of the virtual points [m] (for extents, as particle_origin)."""
+    """(M,) vec3 initial positions of the virtual points [m] (for extents, as particle_origin); for
+    regenerated points the initial position interpolated from the real particles."""
     virtual_ghost_source: wp.array
     virtual_ghost_planes: wp.array
 
@@ -124,6 +126,18 @@ class Model:
     def virtual_total(self) -> int:
         return self.virtual_count + self.virtual_ghost_count
 
+    @property
+    def particle_capacity(self) -> int:
+        """Owned particles and ghost slots: the length of every real-set array (≥ particle_total;
+        larger with ``simulation.large_deformation``, whose ghost count changes)."""
+        return self.particle_mass.shape[0]
+
+    @property
+    def virtual_capacity(self) -> int:
+        """As particle_capacity, for the virtual set (its owned count changes too when a
+        large-deformation run regenerates the virtual points)."""
+        return self.virtual_mass.shape[0]
+
     def state(self) -> "State":
         """A zeroed State with every array this model's effects need."""
         return State.allocate(self)
@@ -153,7 +167,7 @@ class State:
     @classmethod
     def allocate(cls, model: Model) -> "State":
         s, dev = model.spec, model.device
-        n, m = model.particle_total, model.virtual_total
+        n, m = model.particle_capacity, model.virtual_capacity
         two_set = s.scheme == "two_set"
         return cls(
             particle_q=wp.zeros(n, dtype=s.vec3, device=dev),

@@ -139,6 +139,8 @@ class Run:
             if name not in ck.arrays or ck.arrays[name].shape != arr.numpy().shape:
                 raise InputError(f"--resume: the checkpoint does not match this scene (array {name})")
             arr.assign(ck.arrays[name])
+        if self.solver.layout is not None:
+            self.solver.layout.restore(ck.arrays)
         if float(ck.meta.get("time_step", self.dt)) != self.dt:
             raise InputError("--resume: the checkpoint was written with another time step")
         self.scratch.assign(self.state)
@@ -148,6 +150,8 @@ class Run:
     def _checkpoint(self) -> None:
         self.checkpoint_step = self.step_index
         arrays = {name: arr.numpy() for name, arr in self.state.arrays().items()}
+        if self.solver.layout is not None:
+            arrays.update(self.solver.layout.arrays())
         save_checkpoint(self.out / CHECKPOINT, step=self.step_index, time=self.time, arrays=arrays,
                         meta={"time_step": self.dt, "scene": self.scene.name,
                               "precision": self.model.spec.precision})  # fmt: skip

@@ -104,6 +104,12 @@ class Simulation:
     """Run guard: the run stops if any particle speed exceeds this [m/s]."""
     free_surface_threshold: float = 0.75
     """Points whose smallest correction-matrix eigenvalue is below this form the free-surface band."""
+    large_deformation: bool = False
+    """Re-plan the mirror ghosts from the current positions whenever a point has moved farther than
+    the ghost margin since the last plan (flows, collapses); off, the start's layout is kept."""
+    virtual_points: str = "advected"
+    """Large deformation: "advected" (virtual points move with their half-step velocity) or
+    "regenerated" (rebuilt on the start's lattice from the real particles at every ghost re-plan)."""
 
 
 @dataclass(frozen=True)

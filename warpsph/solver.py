@@ -8,6 +8,7 @@ every stage is synchronised and timed into ``stage_seconds``.
 
 from __future__ import annotations
 
+import functools
 import time
 from collections.abc import Callable
 from dataclasses import dataclass
@@ -15,11 +16,14 @@ from dataclasses import dataclass
 import warp as wp
 
 from warpsph.launching import launch, launch_rows
+from warpsph.builder import velocity_region_members
 from warpsph.model import Model, State
 from warpsph.sph.neighbours import NeighbourList
 from warpsph.stages.boundaries import Boundaries
 from warpsph.stages.collocated import RK_TABLEAU, collocated_kernels
 from warpsph.stages.corrections import FitData, compute_fit_data
+from warpsph.stages.ghost_layout import GhostLayout
+from warpsph.stages.virtual_points import VirtualRegenerator
 from warpsph.stages.pressure import PressureProjection
 from warpsph.stages.taylor import taylor_kernels
 
@@ -41,6 +45,13 @@ class Solver:
         self.stage_seconds: dict[str, float] = {}
         self.boundaries = Boundaries(model)
         s, dev = model.spec, model.device
+        self.layout: GhostLayout | None = None
+        """Re-plans the ghosts as the body moves (``simulation.large_deformation`` only)."""
+        if model.scene.simulation.large_deformation:
+            regenerate = s.scheme == "two_set" and model.scene.simulation.virtual_points == "regenerated"
+            regenerator = VirtualRegenerator(model) if regenerate else None
+            self.layout = GhostLayout(model, self.boundaries.plane_position, regenerator,
+                                      functools.partial(velocity_region_members, model.scene))  # fmt: skip
         self.support = 2.0 * model.h
         self.surface_normal = wp.zeros(model.particle_count, dtype=s.vec3, device=dev)
         self.projection: PressureProjection | None = None  # pore_water only (two-set)
@@ -52,12 +63,12 @@ class Solver:
     # -- two-set Taylor-SPH -------------------------------------------------------------------
     def _init_two_set(self) -> None:
         m, s, dev = self.model, self.model.spec, self.model.device
-        self.virtual_v = wp.zeros(m.virtual_total, dtype=s.vec3, device=dev)
-        self.virtual_stress = wp.zeros(m.virtual_total, dtype=s.mat33, device=dev)
+        self.virtual_v = wp.zeros(m.virtual_capacity, dtype=s.vec3, device=dev)
+        self.virtual_stress = wp.zeros(m.virtual_capacity, dtype=s.mat33, device=dev)
         self.virtual_to_real = NeighbourList(s, m.extent, self.support, dev)
         self.real_to_virtual = NeighbourList(s, m.extent, self.support, dev)
-        self.real_fits = FitData(s, m.particle_total, dev)
-        self.virtual_fits = FitData(s, m.virtual_total, dev)
+        self.real_fits = FitData(s, m.particle_capacity, dev)
+        self.virtual_fits = FitData(s, m.virtual_capacity, dev)
         self.stages = [
             Stage("ghosts", self._ghosts_two_set),
             Stage("neighbours", self._neighbours_two_set),
@@ -69,7 +80,7 @@ class Solver:
         ]
         self.virtual_p = None
         if s.effects.pore_water:
-            self.virtual_p = wp.zeros(m.virtual_total, dtype=wp.float64, device=dev)
+            self.virtual_p = wp.zeros(m.virtual_capacity, dtype=wp.float64, device=dev)
             self.real_to_real = NeighbourList(s, m.extent, self.support, dev, same_set=True)
             self.projection = PressureProjection(m, self)
             self.stages.append(Stage("pressure_projection", self._project))
@@ -77,6 +88,8 @@ class Solver:
     def _ghosts_two_set(self, si: State, so: State, t: float, dt: float) -> None:
         self.boundaries.set_time(t)
         self.boundaries.move_planes(si.particle_q)
+        if self.layout is not None:
+            self.layout.update(si)
         self.boundaries.update_real_ghosts(si.particle_q, si.particle_v, si.particle_stress, si.particle_density,
                                            si.particle_pore_pressure)
         if si.particle_plastic_strain is not None:
@@ -150,13 +163,15 @@ class Solver:
 
     def _prescribe(self, si: State, so: State, t: float, dt: float) -> None:
         self.boundaries.set_time(t + dt)
+        if self.layout is not None:
+            self.layout.keep_inside(so.particle_q, so.particle_v)
         self.boundaries.prescribe(so.particle_q, so.particle_v, so.particle_stress, si.particle_pore_pressure)
 
     # -- collocated baseline --------------------------------------------------------------------
     def _init_collocated(self) -> None:
         m, s, dev = self.model, self.model.spec, self.model.device
         self.projection = None  # no pore water in the collocated scheme (the run loop asks)
-        n, ne = m.particle_count, m.particle_total
+        n, ne = m.particle_count, m.particle_capacity
         self.real_to_real = NeighbourList(s, m.extent, self.support, dev, same_set=True)
         self.stage_v = wp.zeros(ne, dtype=s.vec3, device=dev)
         self.stage_stress = wp.zeros(ne, dtype=s.mat33, device=dev)
@@ -174,6 +189,8 @@ class Solver:
     def _ghosts_collocated(self, si: State, so: State, t: float, dt: float) -> None:
         self.boundaries.set_time(t)
         self.boundaries.move_planes(si.particle_q)
+        if self.layout is not None:
+            self.layout.update(si)
         self.boundaries.update_real_ghosts(si.particle_q, si.particle_v, si.particle_stress, si.particle_density)
 
     def _neighbours_collocated(self, si: State, so: State, t: float, dt: float) -> None:

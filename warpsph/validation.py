@@ -363,6 +363,7 @@ def _check_simulation(sim: Simulation) -> None:
     check_range("simulation.artificial_viscosity", sim.artificial_viscosity, NON_NEGATIVE)
     check_range("simulation.velocity_limit", sim.velocity_limit, POSITIVE)
     check_range("simulation.free_surface_threshold", sim.free_surface_threshold, Interval(0.0, 1.0))
+    check_choice("simulation.virtual_points", sim.virtual_points, ("advected", "regenerated"))
 
 
 def _check_effects(effects: Effects) -> None:

@@ -161,6 +161,9 @@ class PlasticFunctions(NamedTuple):
     """(σ, ε̄, W, dt, λ, G, m) → (Δσ, Δε̄) over dt [s]: spin and relaxation, sub-stepped."""
     radial_return: Callable | None
     """von Mises only: (σ, ε̄, G, m) → (σ, ε̄) on the surface, the rate-independent limit γ → ∞."""
+    tension_cutoff: Callable
+    """(σ, ε̄, m) → (σ with its mean stress capped at the apex of the yield surface [Pa], the mean
+    stress removed [Pa]) (frictional surfaces; von Mises: σ unchanged, 0)."""
 
 
 @functools.cache
@@ -369,6 +372,22 @@ def plastic_functions(spec: Spec, yield_name: str) -> PlasticFunctions:
             d_eps = d_eps + de
         return d_sigma, d_eps
 
+    @wp.func
+    def tension_cutoff(sigma: mat33, eps: real, m: Material):
+        """σ less the mean stress beyond the apex p_t = (k_c s_y(ε̄) − a)/(3β), where F = 0 with no
+        deviator [Pa]: no deviatoric flow (and, with ψ < φ, little volumetric flow) brings a stress
+        beyond the apex back, so it is cut off at once (a tension crack: the volume the elastic law
+        gave that mean stress opens between the particles; the caller keeps it out of the density)."""
+        out = sigma
+        removed = zero
+        if m.yield_slope > zero:
+            apex_mean = -yield_value(sigma * zero, eps, m) / (three * m.yield_slope)
+            excess = wp.trace(sigma) / three - apex_mean
+            if excess > zero:
+                out = sigma - excess * wp.identity(3, dtype=real)
+                removed = excess
+        return out, removed
+
     radial_return = None
     if yield_name == "von_mises":
 
@@ -389,4 +408,5 @@ def plastic_functions(spec: Spec, yield_name: str) -> PlasticFunctions:
     return PlasticFunctions(
         invariants, lode_angle, yield_value, yield_gradient, potential_value, potential_gradient,
         perzyna_strain_rate, relaxation_rate, substep_count, relaxation_step, source_increment, radial_return,
+        tension_cutoff,
     )  # fmt: skip

@@ -387,7 +387,7 @@ class PressureProjection:
     def __init__(self, model: Model, solver):
         self.model, self.solver = model, solver
         m, dev = model, model.device
-        n, ne, nv = m.particle_count, m.particle_total, m.virtual_total
+        n, ne, nv = m.particle_count, m.particle_capacity, m.virtual_capacity
         f64 = wp.float64
         self.k = _kernels(m.spec)
         settings = m.scene.pressure

@@ -41,12 +41,14 @@ def taylor_kernels(spec: Spec):
     _fit, fit_weights, _unused, _eig = operator_functions(spec)
     _W, grad_W = smoothing_functions(spec)
     hooke_rate, source_increment, split_velocity_gradient = elastic_functions(spec)
-    zero, half, one = real(0.0), real(0.5), real(1.0)
+    zero, half, one, two, two_thirds = real(0.0), real(0.5), real(1.0), real(2.0), real(2.0 / 3.0)
     pore_water = spec.effects.pore_water
     plasticity = spec.effects.plasticity
     # the plastic arrays' element types; a dry variant takes unused real arrays (passed None)
     PlasticMaterial = material_struct(spec) if plasticity else real
-    plastic_source = plastic_functions(spec, spec.yield_function).source_increment if plasticity else None
+    plastic = plastic_functions(spec, spec.yield_function) if plasticity else None
+    plastic_source = plastic.source_increment if plasticity else None
+    tension_cutoff = plastic.tension_cutoff if plasticity else None
     variant = f"_plastic_{spec.yield_function}" if plasticity else ""
 
     @wp.func
@@ -160,18 +162,21 @@ def taylor_kernels(spec: Spec):
             virt_p[i] = p  # pⁿ at the virtual point, for the full step's lagged pressure force
             body_force = gravity * (one - real(water_density[mat]) / rho)  # buoyant: ∇p_h = ρ_w b
         v_half = v + hdt * (div / rho + body_force)
+        opening = zero
         if wp.static(plasticity):
             eps = fit_value(x, offsets[i], offsets[i + 1], nbr, real_q, real_mass, real_density, real_plastic_strain,
                             h, virt_fit_c[i], virt_fit_inv_den[i], virt_fit_minv[i])  # fmt: skip
             s_trial = s + hdt * hooke_rate(d, lam[mat], shear[mat])
             d_s, _d_eps = plastic_source(s_trial, eps, spin, hdt, lam[mat], shear[mat], plastic_material[mat])
-            s_half = s_trial + d_s
+            s_half, crack = tension_cutoff(s_trial + d_s, eps, plastic_material[mat])
+            # the crack opened over Δt/2 by the rate d opens twice as much over the Δt the density takes
+            opening = two * crack / (lam[mat] + two_thirds * shear[mat])
         else:
             s_half = s + hdt * hooke_rate(d, lam[mat], shear[mat]) + source_increment(s, spin, hdt)
         virt_v_half[i] = v_half
         virt_stress_half[i] = s_half
         virt_q_out[i] = x + dt * v_half
-        virt_density_out[i] = rho * wp.exp(-dt * wp.trace(d))
+        virt_density_out[i] = rho * wp.exp(opening - dt * wp.trace(d))
 
     @wp.kernel(enable_backward=False, module="unique", name=f"full_step{variant}" if plasticity else None)
     def full_step(
@@ -222,21 +227,30 @@ def taylor_kernels(spec: Spec):
                                             real_fit_minv[a], real_fit_e[a], virt_fit_c, virt_fit_inv_den,
                                             virt_fit_minv, virt_fit_e, real_fit_lambda[a] < surface_threshold,
                                             virt_p)  # fmt: skip
+        if offsets[a + 1] == offsets[a]:
+            # no virtual point near: a particle in free flight (ballistic, its stress frozen)
+            G = mat33(zero)
+            div = vec3(zero, zero, zero)
+            v_half = v[a]
         d, spin = split_velocity_gradient(G)
         mat = material[a]
         rho = density[a]
         s = stress[a]
+        opening = zero
         if wp.static(plasticity):
             s_trial = s + dt * hooke_rate(d, lam[mat], shear[mat])
             d_s, d_eps = plastic_source(s_trial, plastic_strain[a], spin, dt, lam[mat], shear[mat],
                                         plastic_material[mat])  # fmt: skip
-            s_new = s_trial + d_s
+            s_new, crack = tension_cutoff(s_trial + d_s, plastic_strain[a] + d_eps, plastic_material[mat])
+            opening = crack / (lam[mat] + two_thirds * shear[mat])  # volumetric strain of the crack [-]
             plastic_strain_out[a] = plastic_strain[a] + d_eps
         else:
             s_new = s + dt * hooke_rate(d, lam[mat], shear[mat]) + source_increment(s, spin, dt)
         body_force = gravity
         if wp.static(pore_water):
             body_force = gravity * (one - real(water_density[mat]) / rho)
+        if offsets[a + 1] == offsets[a]:
+            v_half = v[a] + half * dt * body_force
         visc = vec3(zero, zero, zero)
         if alpha > zero:
             # the particle's own velocity brought to t^{n+½}, the virtual points' time level: against
@@ -255,6 +269,6 @@ def taylor_kernels(spec: Spec):
         v_out[a] = v[a] + dt * (div / rho + body_force + visc)
         stress_out[a] = s_new
         q_out[a] = x + dt * v_half
-        density_out[a] = rho * wp.exp(-dt * wp.trace(d))
+        density_out[a] = rho * wp.exp(opening - dt * wp.trace(d))
 
     return half_step, full_step
