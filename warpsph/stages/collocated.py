@@ -27,6 +27,7 @@ RK_TABLEAU = {
 def collocated_kernels(spec: Spec):
     """``(rates, accumulate)`` kernels for ``spec``."""
     real, vec3, mat33 = spec.real, spec.vec3, spec.mat33
+    moves = vec3(*map(real, spec.axis_mask))  # points move only along the used axes
     W, grad_W = smoothing_functions(spec)
     _fit, _weights, invert_correction, smallest_eigenvalue = operator_functions(spec)
     hooke_rate, _source, split_velocity_gradient = elastic_functions(spec)
@@ -127,7 +128,7 @@ def collocated_kernels(spec: Spec):
         """out += b Δt k (out starts as yⁿ); next stage = yⁿ + a Δt k; positions from stage velocity."""
         a = wp.tid()
         n = surface_normal[a]
-        q_out[a] = q_out[a] + b_dt * v_stage[a]
+        q_out[a] = q_out[a] + b_dt * wp.cw_mul(v_stage[a], moves)
         v_out[a] = v_out[a] + b_dt * dv[a]
         s_out = stress_out[a] + b_dt * dstress[a]
         density_out[a] = density_out[a] + b_dt * ddensity[a]

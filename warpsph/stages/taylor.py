@@ -42,6 +42,7 @@ def taylor_kernels(spec: Spec):
     _W, grad_W = smoothing_functions(spec)
     hooke_rate, source_increment, split_velocity_gradient = elastic_functions(spec)
     zero, half, one, two, two_thirds = real(0.0), real(0.5), real(1.0), real(2.0), real(2.0 / 3.0)
+    moves = vec3(*map(real, spec.axis_mask))  # points move only along the used axes (1D shear: v_x ≠ 0)
     pore_water = spec.effects.pore_water
     plasticity = spec.effects.plasticity
     # the plastic arrays' element types; a dry variant takes unused real arrays (passed None)
@@ -175,7 +176,7 @@ def taylor_kernels(spec: Spec):
             s_half = s + hdt * hooke_rate(d, lam[mat], shear[mat]) + source_increment(s, spin, hdt)
         virt_v_half[i] = v_half
         virt_stress_half[i] = s_half
-        virt_q_out[i] = x + dt * v_half
+        virt_q_out[i] = x + dt * wp.cw_mul(v_half, moves)
         virt_density_out[i] = rho * wp.exp(opening - dt * wp.trace(d))
 
     @wp.kernel(enable_backward=False, module="unique", name=f"full_step{variant}" if plasticity else None)
@@ -268,7 +269,7 @@ def taylor_kernels(spec: Spec):
                     visc += (virt_mass[i] * alpha * ca * mu / rbar) * grad_W(xai, h)
         v_out[a] = v[a] + dt * (div / rho + body_force + visc)
         stress_out[a] = s_new
-        q_out[a] = x + dt * v_half
+        q_out[a] = x + dt * wp.cw_mul(v_half, moves)
         density_out[a] = rho * wp.exp(opening - dt * wp.trace(d))
 
     return half_step, full_step
