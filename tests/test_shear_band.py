@@ -16,17 +16,31 @@ de Borst 1997). A 2D band (biaxial sample) is not covered here.
 
 **Imperfection.** A weaker zone centred at y = 0.5 m whose cohesion dips linearly, as a function of
 position, by 5 % at the centre to nothing at |y − 0.5| = 0.15 m, as 30 nested bodies of 5 mm steps
-(the first body listed owns a point): the same physical imperfection at every Δx used here (a one-
-particle or one-material seed has a Δx-dependent size, and with it the band: measured, a 3-particle
-seed at Δx = 0.02 m and a 7-particle one at 0.01 m gave FWHM 0.042 and 0.029 m).
+(the first body listed owns a point): the same physical imperfection at every Δx used here. A seed
+of one weaker material a few particles thick has a Δx-dependent size, and with it the band
+(*exploration*, γ = 5 /s, 2 % weaker over |y − 0.5| ≤ 0.03 m: 3 particles at Δx = 0.02 m and 7 at
+0.01 m, FWHM 0.042 and 0.029 m).
 
 **Rate length.** Linearising simple shear about yield, τ = τ_y + η γ̇ᵖ with η = F₀/(3γ) and
-h = dτ_y/dγᵖ = H/√3, perturbations e^{λt + iky} obey ρλ² + ηk²λ + hk² ≈ 0 (|h| ≪ G): the growth rate
-tends to |h|/η for short waves and falls to half of that near k = 2√(ρ|h|)/η, the length
-l = πη/√(ρ|h|) = π c_s t_r √(G/|h|) (c_s = √(G/ρ), t_r = η/G). Softening alone has no length and
-localises into the smallest width the particles allow; the rate term gives the band one. With
-γ = 2 /s: η = 2.9 kPa·s, l = 0.53 m, c_s t_r = 0.033 m; the measured band (below) is 0.07 m wide,
-3.5 Δx at the coarse spacing.
+h = dτ_y/dγᵖ = H/√3, perturbations e^{λt + iky} obey ρλ² + ηk²λ + hk² ≈ 0 (for |h| ≪ G; here
+|h|/G = 0.04). With softening (h < 0) every wave grows; the rate rises with k to the limit |h|/η,
+reaches 0.83 of it at k = 2√(ρ|h|)/η and is nearly that for all shorter waves, so the rate term sets
+a length of order l = πη/√(ρ|h|) = π c_s t_r √(G/|h|) (c_s = √(G/ρ), t_r = η/G) below which the band
+does not sharpen appreciably faster. Rate-independent softening has no length and localises into
+the smallest width the particles allow. With γ = 2 /s: η = 2.9 kPa·s, t_r = 0.75 ms,
+c_s t_r = 0.033 m (1.6 Δx at the coarse spacing), l = 0.53 m; the band measured below is 0.064 m
+wide (FWHM), 3.2 Δx at the coarse spacing. The control: γ = 1e4 /s (l = 0.1 mm ≪ Δx) gives a band
+whose width scales with Δx (test below).
+
+**Validity of the 1D layer (found while building this test).** In ``dim = 1`` the particles move
+along x with the shear, and the neighbour search, kernel values and the linear fit take the full
+3D offset x_b − x_a (warpsph/sph/neighbours.py, ``gather``; warpsph/sph/operators.py,
+``fit_operator``), so rows offset along x by the band's slip look farther apart than they are. The
+measure at t = 0.2 s is taken while the band's shear strain is small (adjacent rows offset by 0.1 Δx
+at both spacings, distances 0.5 % long; 0.28 Δx and 4 % in the stiff band at Δx = 0.01 m); after 5×
+the displacement (t = 1 s, rows offset by about Δx) the widths no longer agree (strict expected
+failure, slow), and the stiff band of the stability suite blows up when rows two apart leave each
+other's support.
 
 **Measure.** ε̄ of the particles against their initial y at t = 0.2 s (top displaced by 9.5 mm,
 the same at every Δx). Width: the full width at half the peak of ε̄, the half-peak crossings
@@ -41,26 +55,32 @@ finer pair, 23 s): FWHM 0.0637 m (Δx = 0.02 m, 3.2 Δx), 0.0664 (0.01), 0.0674 
 peak ε̄ 0.054–0.056 at y = 0.500–0.503 m.
 """
 
+import functools
 import math
 
 import numpy as np
 import pytest
 from test_plastic_solver import advance
 
+from warpsph.fields import von_mises
 from warpsph.scene import Body, Boundary, Effects, Material, Scene, Simulation, TimeFunction
 
 E, NU, DENSITY = 10e6, 0.3, 2000.0
 COHESION, SOFTENING, RESIDUAL = 10e3, -2.5e5, 5e3
 """c [Pa], H = dc/dε̄ [Pa], c_r [Pa]: the residual is reached at ε̄ = (c − c_r)/|H| = 0.02."""
 SIGMA_Y = math.sqrt(3.0) * COHESION
-HEIGHT, SPEED, RAMP, END = 1.0, 0.05, 0.02, 0.2
-"""Layer height [m], top speed [m/s], its ramp [s], the time of the measure [s]."""
+HEIGHT, SPEED, RAMP, END, LONG_END = 1.0, 0.05, 0.02, 0.2, 1.0
+"""Layer height [m], top speed [m/s], its ramp [s], the time of the measure [s] (top displaced 9.5 mm),
+and of the long runs (49.5 mm)."""
 CENTRE, SEED_HALF_WIDTH, SEED_DIP, SEED_STEPS = 0.5, 0.15, 0.05, 30
 """The imperfection: centre [m], half width [m], relative cohesion dip at the centre, nested bodies."""
 WINDOW = (0.25, 0.75)
 """y-range [m] over which the band is measured (clear of the boundary layers at base and top)."""
 REGULARISED = 2.0
-"""γ [1/s] of the regularised band."""
+"""γ [1/s] of the regularised band: rate length l = 0.53 m."""
+STIFF = 1.0e4
+"""γ [1/s] of a band without a resolved rate length: l = 0.1 mm, relaxation time F₀/(3Gγ) = 0.15 µs
+(the stiff-plasticity case of the stability suite, tests/stability/test_stiff_plasticity.py)."""
 SHEAR = E / (2.0 * (1.0 + NU))
 
 
@@ -128,18 +148,58 @@ def band(y: np.ndarray, eps: np.ndarray) -> dict:
                 spread=math.sqrt(float(np.sum(weight * (y - mean) ** 2))))  # fmt: skip
 
 
-def band_at_end(dx: float, fluidity: float) -> dict:
-    """Run the layer to ``END`` and measure its band."""
+OBSERVE_EVERY = 20
+"""Steps between the checks of a run's stress and speed."""
+
+
+def strength(scene: Scene, model, eps: np.ndarray) -> np.ndarray:
+    """σ_Y(ε̄) = √3 max(c + Hε̄, c_r) of the owned particles, each with its own material's c and c_r."""
+    materials = list(scene.materials.values())
+    index = model.particle_material.numpy()[: model.particle_count]
+    cohesion = np.array([m.cohesion for m in materials])[index]
+    residual = np.array([m.residual_cohesion for m in materials])[index]
+    return math.sqrt(3.0) * np.maximum(cohesion + SOFTENING * eps, residual)
+
+
+@functools.cache
+def layer_run(dx: float, fluidity: float, end: float = END) -> dict:
+    """Run the layer to ``end`` [s] (once per session: the stability suite reads the same runs). Returns
+    the band at the end (:func:`band`), the largest σ_eq/σ_Y(ε̄) − 1 of any particle and the largest
+    particle speed [m/s] every ``OBSERVE_EVERY`` steps (``times``, ``speeds``), and whether every
+    field stayed finite."""
     scene = shear_layer(dx, fluidity)
-    *_, (t, model, state) = advance(scene, steps_to(scene, END), every=steps_to(scene, END))
-    result = band(*profile(model, state))
-    print(f"\nγ = {fluidity:g} /s, Δx = {dx} m: peak ε̄ {result['peak']:.4f} at y = {result['peak_at']:.3f} m, "
-          f"FWHM {result['width']:.4f} m ({result['width'] / dx:.1f} Δx), weighted s.d. {result['spread']:.4f} m")
+    steps = steps_to(scene, end)
+    record = dict(times=[], speeds=[], overstress=-math.inf, finite=True, time_step=scene.time_step, scene=scene)
+    for k, (t, model, state) in enumerate(advance(scene, steps), start=1):
+        if k % OBSERVE_EVERY and k < steps:
+            continue
+        n = model.particle_count
+        v = state.particle_v.numpy()[:n]
+        sigma = state.particle_stress.numpy()[:n]
+        eps = state.particle_plastic_strain.numpy()[:n].astype(np.float64)
+        if not (np.isfinite(v).all() and np.isfinite(sigma).all() and np.isfinite(eps).all()):
+            record["finite"] = False
+            break
+        over = float(np.max(von_mises(sigma) / strength(scene, model, eps) - 1.0))
+        record["overstress"] = max(record["overstress"], over)
+        record["times"].append(t)
+        record["speeds"].append(float(np.linalg.norm(v, axis=1).max()))
+    record["band"] = band(*profile(model, state)) if record["finite"] else None
+    return record
+
+
+def band_at(dx: float, fluidity: float, end: float = END) -> dict:
+    """The band of :func:`layer_run` at ``end``, printed."""
+    result = layer_run(dx, fluidity, end)["band"]
+    assert result is not None, f"the run with Δx = {dx} m, γ = {fluidity:g} /s did not stay finite to t = {end} s"
+    print(f"\nγ = {fluidity:g} /s, Δx = {dx} m, t = {end} s: peak ε̄ {result['peak']:.4f} at "
+          f"y = {result['peak_at']:.3f} m, "
+          f"FWHM {result['width']:.4f} m ({result['width'] / dx:.2f} Δx), weighted s.d. {result['spread']:.4f} m")
     return result
 
 
-def check_refinement(coarse: float, fine: float) -> None:
-    a, b = band_at_end(coarse, REGULARISED), band_at_end(fine, REGULARISED)
+def check_refinement(coarse: float, fine: float, end: float = END) -> None:
+    a, b = band_at(coarse, REGULARISED, end), band_at(fine, REGULARISED, end)
     ratio = b["width"] / a["width"]
     print(f"width ratio (Δx = {fine} over {coarse}): {ratio:.3f}; s.d. ratio {b['spread'] / a['spread']:.3f}")
     for r, dx in ((a, coarse), (b, fine)):
@@ -156,3 +216,21 @@ def test_band_width_converges_when_dx_is_halved():
 @pytest.mark.slow
 def test_band_width_converges_on_finer_spacings():
     check_refinement(0.005, 0.0025)
+
+
+@pytest.mark.slow
+@pytest.mark.xfail(strict=True, reason="measured: at t = 1 s (top displaced 49.5 mm) FWHM 0.0779 m (Δx = 0.02 m) "
+                   "and 0.0476 m (0.01 m, peak moved to y = 0.48 m), ratio 0.611; the band's slip then offsets "
+                   "neighbouring rows along x by about Δx, which the 1D kernel distances count (module docstring)")
+def test_band_width_converges_after_five_times_the_displacement():
+    check_refinement(0.02, 0.01, end=LONG_END)
+
+
+def test_without_a_resolved_rate_length_the_band_narrows_with_dx():
+    """The control: with γ = 1e4 /s (l = 0.1 mm ≪ Δx) the same measure is not converged — the band
+    narrows when Δx is halved by more than the 20 % allowed above, so the criterion can fail and the
+    convergence at γ = 2 /s is the rate term's doing."""
+    a, b = band_at(0.02, STIFF), band_at(0.01, STIFF)
+    ratio = b["width"] / a["width"]
+    print(f"width ratio (Δx = 0.01 over 0.02): {ratio:.3f}")
+    assert ratio < 0.8
