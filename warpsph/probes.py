@@ -1,7 +1,8 @@
 """Probes: scalar time series sampled from the particle fields on the host.
 
 Probes are Lagrangian: a "point" probe follows the material particle nearest its point at the
-start, a "region_mean" probe the particles that start inside its region; a "reaction" probe sums
+start, a "region_mean" probe the particles that start inside its region, a "maximum" or
+"minimum" probe those (or all particles, without a region) to their extreme value; a "reaction" probe sums
 the total traction σ·n (σ = σ′ − p I with pore water) over the particles lying on a boundary plane, each standing for an area V/Δx,
 halved for every other plane it also lies on (an edge particle's area is half outside the body).
 Every value is multiplied by the probe's ``scale`` before it is written.
@@ -15,6 +16,8 @@ from warpsph.fields import mean_stress, von_mises
 from warpsph.model import Model
 
 _COMPONENT = {"x": 0, "y": 1, "z": 2}
+EXTREMA = {"maximum": np.max, "minimum": np.min}
+"""Probe kinds that reduce a field over their particles to its extreme value."""
 _STRESS = {"xx": (0, 0), "yy": (1, 1), "zz": (2, 2), "yz": (1, 2), "xz": (0, 2), "xy": (0, 1)}
 
 
@@ -23,6 +26,8 @@ def field_values(name: str, fields: dict[str, np.ndarray], x0: np.ndarray) -> np
     kind, _, comp = name.rpartition("_")
     if kind == "velocity":
         return fields["velocity"][:, _COMPONENT[comp]]
+    if kind == "position":
+        return fields["position"][:, _COMPONENT[comp]]
     if kind == "displacement":
         return fields["position"][:, _COMPONENT[comp]] - x0[:, _COMPONENT[comp]]
     if kind == "stress":
@@ -63,8 +68,10 @@ class Probes:
             normal = factor = None
             if p.kind == "point":
                 sel = np.array([np.argmin(np.sum((x0 - np.asarray(p.point)) ** 2, axis=1))])
-            elif p.kind == "region_mean":
+            elif p.kind == "region_mean" or (p.kind in EXTREMA and p.region is not None):
                 sel = np.nonzero(p.region.contains(x0, tol))[0]
+            elif p.kind in EXTREMA:
+                sel = np.arange(len(x0))
             else:
                 plane = model.plane_names.index(p.boundary)
                 axis = int(model.plane_axis.numpy()[plane])
@@ -92,5 +99,6 @@ class Probes:
                 out[p.name] = p.scale * float(np.sum(traction[:, _COMPONENT[p.field]] * area))
             else:
                 values = field_values(p.field, {k: v[sel] for k, v in fields.items()}, x0[sel])
-                out[p.name] = p.scale * float(np.mean(values)) if len(values) else float("nan")
+                reduce = EXTREMA.get(p.kind, np.mean)
+                out[p.name] = p.scale * float(reduce(values)) if len(values) else float("nan")
         return out

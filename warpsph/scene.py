@@ -334,10 +334,12 @@ class Probe:
     """A time series written to the results file.
 
     kind "point": ``field`` at the material particle nearest ``point``; "region_mean": mean of
-    ``field`` over the particles inside ``region``; "reaction": force per unit out-of-plane length
+    ``field`` over the particles inside ``region``; "maximum" / "minimum": the largest / smallest
+    value of ``field`` over the particles inside ``region`` (all particles without one), e.g. the
+    front of a flow as the maximum of position_x; "reaction": force per unit out-of-plane length
     (2D) or force (3D) [N/m or N] that the boundary or load named ``boundary`` exerts on the body,
     component ``field`` ("x", "y" or "z").
-    Fields: velocity_x|y|z [m/s], displacement_x|y|z [m], stress_xx|yy|zz|yz|xz|xy [Pa],
+    Fields: velocity_x|y|z [m/s], position_x|y|z [m], displacement_x|y|z [m], stress_xx|yy|zz|yz|xz|xy [Pa],
     mean_stress [Pa], von_mises [Pa], pore_pressure [Pa] (total; pore_water only), plastic_strain
     [-] (plasticity only). The written value is the probe's value times ``scale`` (e.g. a reaction
     over a loaded width gives a mean pressure, or −1 turns tension-positive into compression-positive).

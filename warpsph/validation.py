@@ -45,6 +45,7 @@ from warpsph.scene import (
 
 PROBE_FIELDS = (
     *(f"velocity_{a}" for a in AXES),
+    *(f"position_{a}" for a in AXES),
     *(f"displacement_{a}" for a in AXES),
     *(f"stress_{c}" for c in ("xx", "yy", "zz", "yz", "xz", "xy")),
     "mean_stress",
@@ -618,7 +619,7 @@ def _check_time_function(tf: TimeFunction, key: str) -> None:
 
 def _check_probe(probe: Probe, key: str, scene: Scene) -> None:
     check_types(probe, key)
-    check_choice(f"{key}.kind", probe.kind, ("point", "region_mean", "reaction"))
+    check_choice(f"{key}.kind", probe.kind, ("point", "region_mean", "maximum", "minimum", "reaction"))
     if probe.kind == "reaction":
         check_choice(f"{key}.field", probe.field, AXES, note=" (force component of a reaction probe)")
         faces = [b.name for b in scene.boundaries] + [ld.name for ld in scene.loads if ld.kind == "traction"]
@@ -637,6 +638,7 @@ def _check_probe(probe: Probe, key: str, scene: Scene) -> None:
     if probe.kind == "region_mean":
         if probe.region is None:
             raise SceneError(f"{key}.region", 'a "region_mean" probe needs region = { min = [...], max = [...] }')
+    if probe.region is not None:
         _check_region(probe.region, f"{key}.region")
 
 
