@@ -22,6 +22,7 @@ from warpsph.errors import SceneError
 from warpsph.scene import AXES, EXTENT_TOLERANCE, Scene
 from warpsph.sph.spec import Spec
 from warpsph.stages.ghost_layout import GHOST_MARGIN, ON_PLANE, plan_ghosts
+from warpsph.stages.rigid import RIGID_LOAD_KINDS
 
 _BOUNDARY_KINDS = {"fixed": PLANE_FIXED, "slip": PLANE_SLIP, "symmetry": PLANE_SLIP, "free": PLANE_TRACTION,
                    "velocity": PLANE_VELOCITY}  # fmt: skip
@@ -69,12 +70,12 @@ def _with_room(ghosts, points: np.ndarray, plane_count: int, large_deformation: 
             np.concatenate([chain, np.full((room, 3), -1, np.int32)]))  # fmt: skip
 
 
-def velocity_region_members(scene: Scene, points: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """Indices of the ``points`` [m] inside the region of each velocity load, and that load's index
-    among the velocity loads."""
+def rigid_region_members(scene: Scene, points: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Indices of the ``points`` [m] inside the region of each rigid ("velocity" or "force") load,
+    and that load's index among the rigid loads."""
     index, load = [], []
-    vel_loads = [ld for ld in scene.loads if ld.kind == "velocity"]
-    for k, ld in enumerate(vel_loads):
+    rigid_loads = [ld for ld in scene.loads if ld.kind in RIGID_LOAD_KINDS]
+    for k, ld in enumerate(rigid_loads):
         inside = np.nonzero(ld.region.contains(points, ON_PLANE * scene.simulation.dx))[0]
         index.extend(inside.tolist())
         load.extend([k] * len(inside))
@@ -191,9 +192,8 @@ def build(scene: Scene, device: str = "cpu", precision: str | None = None) -> tu
     if pore:
         _check_drained_planes(scene, planes, on_plane, real_pts)
 
-    vel_loads = [ld for ld in scene.loads if ld.kind == "velocity"]
-    region_particle, region_load = velocity_region_members(scene, real_pts)
-    region_virtual, region_virtual_load = velocity_region_members(scene, virt_pts)
+    region_particle, region_load = rigid_region_members(scene, real_pts)
+    region_virtual, region_virtual_load = rigid_region_members(scene, virt_pts)
 
     all_pts = np.concatenate([real_pts, g_pos, virt_pts, vg_pos])
     extent = all_pts.max(axis=0) - all_pts.min(axis=0)
@@ -260,8 +260,6 @@ def build(scene: Scene, device: str = "cpu", precision: str | None = None) -> tu
         region_load=arr(region_load, wp.int32),
         region_virtual=arr(region_virtual, wp.int32),
         region_virtual_load=arr(region_virtual_load, wp.int32),
-        region_velocity=arr(np.array([ld.velocity for ld in vel_loads], npr), vec3, (0, 3)),
-        region_functions=[ld.time_function for ld in vel_loads],
         material_plasticity=_plastic_materials(spec, mats, device) if spec.effects.plasticity else None,
         particle_ids=np.arange(n, dtype=np.int64),
         pore=(build_pore_water(scene, [p[8] for p in planes], float(real_pts[:, 1].max()), vec3, grow, device)

@@ -100,16 +100,13 @@ class Model:
 
     region_count: int
     region_particle: wp.array
-    """(R,) int32 particles whose velocity is prescribed."""
+    """(R,) int32 particles of rigid regions ("velocity" and "force" loads)."""
     region_load: wp.array
-    """(R,) int32 index of the velocity load that drives it."""
+    """(R,) int32 index of the rigid load each belongs to, among the rigid loads."""
     region_virtual: wp.array
-    """(RV,) int32 virtual points whose half-step velocity is prescribed (two-set scheme)."""
+    """(RV,) int32 virtual points of rigid regions (two-set scheme)."""
     region_virtual_load: wp.array
-    """(RV,) int32 index of the velocity load that drives it."""
-    region_velocity: wp.array
-    """(n_velocity_loads,) vec3 [m/s] before the time factor."""
-    region_functions: list
+    """(RV,) int32 index of the rigid load each belongs to."""
 
     material_plasticity: wp.array | None = None
     """(n_materials,) :func:`~warpsph.physics.plasticity.material_struct` values (plasticity only;

@@ -2,9 +2,11 @@
 
 Probes are Lagrangian: a "point" probe follows the material particle nearest its point at the
 start, a "region_mean" probe the particles that start inside its region, a "maximum" or
-"minimum" probe those (or all particles, without a region) to their extreme value; a "reaction" probe sums
-the total traction σ·n (σ = σ′ − p I with pore water) over the particles lying on a boundary plane, each standing for an area V/Δx,
-halved for every other plane it also lies on (an edge particle's area is half outside the body).
+"minimum" probe those (or all particles, without a region) to their extreme value. A "reaction"
+probe sums the total traction σ·n (σ = σ′ − p I with pore water) over the particles lying on a
+boundary plane, each standing for an area V/Δx, halved for every other plane it also lies on (an
+edge particle's area is half outside the body); naming a "velocity" or "force" load, it writes the
+contact force of that rigid region (``stages/rigid.py``).
 Every value is multiplied by the probe's ``scale`` before it is written.
 """
 
@@ -14,6 +16,7 @@ import numpy as np
 
 from warpsph.fields import mean_stress, von_mises
 from warpsph.model import Model
+from warpsph.stages.rigid import RIGID_LOAD_KINDS
 
 _COMPONENT = {"x": 0, "y": 1, "z": 2}
 EXTREMA = {"maximum": np.max, "minimum": np.min}
@@ -64,9 +67,14 @@ class Probes:
         on_planes = {}
         for a, planes in zip(model.constraint_particle.numpy(), model.constraint_planes.numpy().reshape(-1, 3)):
             on_planes[int(a)] = int(np.count_nonzero(planes >= 0))
+        rigid = [ld.name for ld in model.scene.loads if ld.kind in RIGID_LOAD_KINDS]
+        self.rigid_index: list[int | None] = []
         for p in self.probes:
             normal = factor = None
-            if p.kind == "point":
+            self.rigid_index.append(rigid.index(p.boundary) if p.kind == "reaction" and p.boundary in rigid else None)
+            if self.rigid_index[-1] is not None:
+                sel = np.zeros(0, dtype=np.int64)
+            elif p.kind == "point":
                 sel = np.array([np.argmin(np.sum((x0 - np.asarray(p.point)) ** 2, axis=1))])
             elif p.kind == "region_mean" or (p.kind in EXTREMA and p.region is not None):
                 sel = np.nonzero(p.region.contains(x0, tol))[0]
@@ -88,12 +96,16 @@ class Probes:
     def names(self) -> list[str]:
         return [p.name for p in self.probes]
 
-    def sample(self, fields: dict[str, np.ndarray]) -> dict[str, float]:
-        """Probe values from host fields position (N,3), velocity (N,3), stress (N,3,3), density (N,)."""
+    def sample(self, fields: dict[str, np.ndarray], rigid_contact: np.ndarray | None = None) -> dict[str, float]:
+        """Probe values from host fields position (N,3), velocity (N,3), stress (N,3,3), density (N,)
+        and, for reactions of rigid regions, their contact forces ``rigid_contact`` (K,3) [N/m or N]."""
         out = {}
         x0 = self.model.particle_x0
-        for p, sel, normal, factor in zip(self.probes, self.selection, self.normal, self.area_factor):
-            if p.kind == "reaction":
+        for p, sel, normal, factor, k in zip(self.probes, self.selection, self.normal, self.area_factor,
+                                             self.rigid_index):  # fmt: skip
+            if k is not None:
+                out[p.name] = p.scale * float(rigid_contact[k, _COMPONENT[p.field]])
+            elif p.kind == "reaction":
                 traction = total_stress(fields)[sel] @ normal
                 area = factor * self._mass[sel] / fields["density"][sel] / self.model.dx
                 out[p.name] = p.scale * float(np.sum(traction[:, _COMPONENT[p.field]] * area))

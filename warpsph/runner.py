@@ -161,7 +161,7 @@ class Run:
         if not self.probes.probes:
             return
         fields = fields or host_fields(self.model, self.state)
-        for name, value in self.probes.sample(fields).items():
+        for name, value in self.probes.sample(fields, self.solver.rigid.contact_forces()).items():
             self.results.append_series(name, self.step_index, self.time, value)
 
     def _record_pressure_solve(self) -> None:

@@ -312,7 +312,9 @@ class Load(_OnPlane):
     carries traction t = σ·n = ``traction`` × f(t) [Pa] (n outward, so a compressive load on a top
     face is (0, −p, 0)); where ``extent`` is given, the face outside it is traction-free.
     kind "velocity": every particle and virtual point that starts inside ``region`` moves at
-    ``velocity`` × f(t) [m/s] (a rigid piston; make it thicker than the support 2h).
+    ``velocity`` × f(t) [m/s] (a rigid piston or footing; make it thicker than the support 2h).
+    kind "force": those points move as one rigid body in translation under ``force`` × f(t)
+    [N/m in 2D, N in 3D], gravity and the rest of the body (a footing under a load).
     """
 
     name: str = "load"
@@ -324,6 +326,7 @@ class Load(_OnPlane):
     extent: Region | None = None
     region: Region | None = None
     velocity: tuple[float, float, float] = (0.0, 0.0, 0.0)
+    force: tuple[float, float, float] = (0.0, 0.0, 0.0)
     time_function: TimeFunction = field(default_factory=TimeFunction)
     drainage: Drainage = field(default_factory=Drainage)
     """Pore-water condition of the loaded face (pore_water effect)."""
@@ -338,7 +341,8 @@ class Probe:
     value of ``field`` over the particles inside ``region`` (all particles without one), e.g. the
     front of a flow as the maximum of position_x; "reaction": force per unit out-of-plane length
     (2D) or force (3D) [N/m or N] that the boundary or load named ``boundary`` exerts on the body,
-    component ``field`` ("x", "y" or "z").
+    component ``field`` ("x", "y" or "z"); for a "velocity" or "force" load, the contact force its
+    rigid region exerts on the rest of the body.
     Fields: velocity_x|y|z [m/s], position_x|y|z [m], displacement_x|y|z [m], stress_xx|yy|zz|yz|xz|xy [Pa],
     mean_stress [Pa], von_mises [Pa], pore_pressure [Pa] (total; pore_water only), plastic_strain
     [-] (plasticity only). The written value is the probe's value times ``scale`` (e.g. a reaction

@@ -16,13 +16,14 @@ from dataclasses import dataclass
 import warp as wp
 
 from warpsph.launching import launch, launch_rows
-from warpsph.builder import velocity_region_members
+from warpsph.builder import rigid_region_members
 from warpsph.model import Model, State
 from warpsph.sph.neighbours import NeighbourList
 from warpsph.stages.boundaries import Boundaries
 from warpsph.stages.collocated import RK_TABLEAU, collocated_kernels
 from warpsph.stages.corrections import FitData, compute_fit_data
 from warpsph.stages.ghost_layout import GhostLayout
+from warpsph.stages.rigid import RigidRegions
 from warpsph.stages.virtual_points import VirtualRegenerator
 from warpsph.stages.pressure import PressureProjection
 from warpsph.stages.taylor import taylor_kernels
@@ -44,6 +45,7 @@ class Solver:
         self.profile = profile
         self.stage_seconds: dict[str, float] = {}
         self.boundaries = Boundaries(model)
+        self.rigid = RigidRegions(model)
         s, dev = model.spec, model.device
         self.layout: GhostLayout | None = None
         """Re-plans the ghosts as the body moves (``simulation.large_deformation`` only)."""
@@ -51,7 +53,7 @@ class Solver:
             regenerate = s.scheme == "two_set" and model.scene.simulation.virtual_points == "regenerated"
             regenerator = VirtualRegenerator(model) if regenerate else None
             self.layout = GhostLayout(model, self.boundaries.plane_position, regenerator,
-                                      functools.partial(velocity_region_members, model.scene))  # fmt: skip
+                                      functools.partial(rigid_region_members, model.scene))  # fmt: skip
         self.support = 2.0 * model.h
         self.surface_normal = wp.zeros(model.particle_count, dtype=s.vec3, device=dev)
         self.projection: PressureProjection | None = None  # pore_water only (two-set)
@@ -87,6 +89,7 @@ class Solver:
 
     def _ghosts_two_set(self, si: State, so: State, t: float, dt: float) -> None:
         self.boundaries.set_time(t)
+        self.rigid.begin_step(si.particle_v, t, dt)
         self.boundaries.move_planes(si.particle_q)
         if self.layout is not None:
             self.layout.update(si)
@@ -131,7 +134,7 @@ class Solver:
 
     def _virtual_ghosts(self, si: State, so: State, t: float, dt: float) -> None:
         self.boundaries.set_time(t + 0.5 * dt)
-        self.boundaries.prescribe_virtual(self.virtual_v)
+        self.rigid.prescribe_virtual(self.virtual_v)
         self.boundaries.update_virtual_ghosts(si.virtual_q, self.virtual_v, self.virtual_stress, si.virtual_density,
                                               self.virtual_p)
         if self.projection is not None:
@@ -160,12 +163,14 @@ class Solver:
         """Pressure projection, then the prescribed velocities again (the correction moves them)."""
         self.projection.project(si, so, dt)
         self.boundaries.prescribe(so.particle_q, so.particle_v, so.particle_stress, so.particle_pore_pressure)
+        self.rigid.prescribe(so.particle_v)
 
     def _prescribe(self, si: State, so: State, t: float, dt: float) -> None:
         self.boundaries.set_time(t + dt)
         if self.layout is not None:
             self.layout.keep_inside(so.particle_q, so.particle_v)
         self.boundaries.prescribe(so.particle_q, so.particle_v, so.particle_stress, si.particle_pore_pressure)
+        self.rigid.prescribe(so.particle_v)
 
     # -- collocated baseline --------------------------------------------------------------------
     def _init_collocated(self) -> None:
@@ -188,6 +193,7 @@ class Solver:
 
     def _ghosts_collocated(self, si: State, so: State, t: float, dt: float) -> None:
         self.boundaries.set_time(t)
+        self.rigid.begin_step(si.particle_v, t, dt)
         self.boundaries.move_planes(si.particle_q)
         if self.layout is not None:
             self.layout.update(si)

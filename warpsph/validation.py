@@ -545,20 +545,20 @@ def _check_boundary(boundary: Boundary, key: str, scene: Scene) -> None:
 
 def _check_load(load: Load, key: str, scene: Scene) -> None:
     check_types(load, key)
-    check_choice(f"{key}.kind", load.kind, ("traction", "velocity"))
+    check_choice(f"{key}.kind", load.kind, ("traction", "velocity", "force"))
     if load.kind == "traction":
         _check_face(load, key, scene.simulation.dim)
     elif load.region is None:
-        raise SceneError(f"{key}.region", 'a "velocity" load needs region = { min = [...], max = [...] }')
+        raise SceneError(f"{key}.region", f'a {show(load.kind)} load needs region = {{ min = [...], max = [...] }}')
     for name in ("extent", "region"):
         if getattr(load, name) is not None:
             _check_region(getattr(load, name), f"{key}.{name}")
     _check_time_function(load.time_function, f"{key}.time_function")
     _check_drainage(load.drainage, f"{key}.drainage", scene.effects)
-    if load.kind == "velocity" and load.drainage.kind != "impermeable":
+    if load.kind != "traction" and load.drainage.kind != "impermeable":
         raise SceneError(
             f"{key}.drainage.kind",
-            f'must be "impermeable" for a "velocity" load (only faces drain), got {show(load.drainage.kind)}',
+            f"must be \"impermeable\" for a {show(load.kind)} load (only faces drain), got {show(load.drainage.kind)}",
         )
 
 
@@ -622,12 +622,12 @@ def _check_probe(probe: Probe, key: str, scene: Scene) -> None:
     check_choice(f"{key}.kind", probe.kind, ("point", "region_mean", "maximum", "minimum", "reaction"))
     if probe.kind == "reaction":
         check_choice(f"{key}.field", probe.field, AXES, note=" (force component of a reaction probe)")
-        faces = [b.name for b in scene.boundaries] + [ld.name for ld in scene.loads if ld.kind == "traction"]
+        faces = [b.name for b in scene.boundaries] + [ld.name for ld in scene.loads]
         if probe.boundary not in faces:
             accepted = ", ".join(show(f) for f in faces) or "none defined"
             raise SceneError(
                 f"{key}.boundary",
-                f"must name a boundary or traction load ({accepted}), got {show(probe.boundary)}",
+                f"must name a boundary or load ({accepted}), got {show(probe.boundary)}",
             )
         return
     check_choice(f"{key}.field", probe.field, PROBE_FIELDS)

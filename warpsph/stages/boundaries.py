@@ -17,9 +17,7 @@ body force): pure even parity put a kink into a geostatic stress and moved a col
 Particles that lie on a plane get the plane's prescribed values after every update. Fixed and slip
 planes stay where they are; traction and velocity planes are material faces and follow the mean
 position of the particles lying on them (mirroring across a plane the body has moved away from
-would put ghosts inside it). Velocity regions prescribe the velocity of the particles and virtual points that
-started inside them (a rigid piston in both sets: driving the real particles alone excites the
-odd-even mode the virtual points cannot see).
+would put ghosts inside it). Rigid regions ("velocity" and "force" loads) are ``stages/rigid.py``'s.
 """
 
 
@@ -212,18 +210,6 @@ def _kernels(spec: Spec):
         stress[a] = s
 
     @wp.kernel(enable_backward=False, module="unique")
-    def prescribe_in_regions(
-        particle: wp.array(dtype=wp.int32),
-        load: wp.array(dtype=wp.int32),
-        velocity: wp.array(dtype=vec3),
-        factor: wp.array(dtype=real),
-        v: wp.array(dtype=vec3),
-    ):
-        i = wp.tid()
-        k = load[i]
-        v[particle[i]] = velocity[k] * factor[k]
-
-    @wp.kernel(enable_backward=False, module="unique")
     def sum_plane_positions(
         particle: wp.array(dtype=wp.int32),
         planes_of: wp.array(dtype=wp.vec3i),
@@ -252,7 +238,7 @@ def _kernels(spec: Spec):
         if (kind == PLANE_TRACTION or kind == PLANE_VELOCITY) and on_plane_count[p] > real(0.0):
             position[p] = sums[p] / on_plane_count[p]
 
-    return update_ghosts, prescribe_on_planes, prescribe_in_regions, sum_plane_positions, move_planes
+    return update_ghosts, prescribe_on_planes, sum_plane_positions, move_planes
 
 
 @functools.cache
@@ -274,7 +260,6 @@ class Boundaries:
         self.model = model
         real = model.spec.real
         self.plane_factor = wp.zeros(max(model.plane_count, 1), dtype=real, device=model.device)
-        self.region_factor = wp.zeros(max(len(model.region_functions), 1), dtype=real, device=model.device)
         self._time = None
         self.plane_position = wp.clone(model.plane_position)
         """(P,) current plane coordinates [m]."""
@@ -292,8 +277,6 @@ class Boundaries:
         m = self.model
         if m.plane_count:
             self.plane_factor.assign(np.array([f(t) for f in m.plane_functions]))
-        if m.region_functions:
-            self.region_factor.assign(np.array([f(t) for f in m.region_functions]))
         self._time = t
 
     def move_planes(self, q) -> None:
@@ -350,22 +333,14 @@ class Boundaries:
         launch(_copy_kernel(m.spec), m.particle_ghost_count, [m.particle_count, m.particle_ghost_source, values],
                m.device)  # fmt: skip
 
-    def prescribe_virtual(self, v_half) -> None:
-        """Set the half-step velocity of the virtual points inside velocity regions."""
-        m = self.model
-        _, _, in_regions, *_ = _kernels(m.spec)
-        launch(in_regions, len(m.region_virtual),
-               [m.region_virtual, m.region_virtual_load, m.region_velocity, self.region_factor, v_half], m.device)
-
     def prescribe(self, q, v, stress, pore=None) -> None:
-        """Set prescribed velocities and tractions on plane and region particles (tractions are total
-        stresses: with pore water, ``pore`` holds the excess pore pressure)."""
+        """Set prescribed velocities and tractions on plane particles (tractions are total stresses:
+        with pore water, ``pore`` holds the excess pore pressure); rigid regions are
+        :mod:`warpsph.stages.rigid`'s."""
         m = self.model
-        _, on_planes, in_regions, *_ = _kernels(m.spec)
+        _, on_planes, *_ = _kernels(m.spec)
         plane_args = self._plane_args()
         launch(on_planes, m.constraint_count,
                [m.constraint_particle, m.constraint_planes, plane_args[0], *plane_args[2:],
                 *self._water_args(m.particle_material, pore), *self._drainage_args(), m.particle_origin, q, v, stress],
                m.device)  # fmt: skip
-        launch(in_regions, m.region_count,
-               [m.region_particle, m.region_load, m.region_velocity, self.region_factor, v], m.device)

@@ -1,0 +1,199 @@
+"""Rigid regions: the particles and virtual points that start inside a "velocity" or "force" load's
+region move together as one rigid body in translation (a footing, a piston).
+
+After each update of the particle velocities (the Taylor step, and the pressure projection when there
+is one), the region's velocity is set:
+
+- "velocity" load: v_R = v̄ f(t), prescribed;
+- "force" load: v_R = (Σ m v_free + Δt F f(t)) / M, the momentum the free update gave the region's
+  particles plus the impulse of the applied force F [N/m in 2D, N in 3D], over the region's mass M
+  (the force is added once a step).
+
+The impulse the drive gives, Σ m (v_R − v_free), is summed over the step, and the contact force the
+region exerts on the rest of the body follows from the region's momentum balance,
+F_contact = M g + (drive impulse − M (v_R^{n+1} − v_R^n)) / Δt  [N/m or N];
+a "reaction" probe naming the load writes it. Virtual points of a region take v̄ f(t + Δt/2) for
+their half step ("velocity") or v_R at the step's start ("force"). Rotation is not followed
+(translation only).
+"""
+
+import functools
+
+import numpy as np
+import warp as wp
+
+from warpsph.launching import launch
+from warpsph.sph.spec import Spec
+
+MODE_VELOCITY, MODE_FORCE = 0, 1
+RIGID_LOAD_KINDS = {"velocity": MODE_VELOCITY, "force": MODE_FORCE}
+
+
+@functools.cache
+def _kernels(spec: Spec):
+    real, vec3 = spec.real, spec.vec3
+
+    @wp.kernel(enable_backward=False, module="unique")
+    def sum_momentum(
+        particle: wp.array(dtype=wp.int32),
+        load: wp.array(dtype=wp.int32),
+        mass: wp.array(dtype=real),
+        v: wp.array(dtype=vec3),
+        momentum: wp.array(dtype=vec3),
+    ):
+        """momentum[k] += m v of every particle of region k [kg m/s]."""
+        i = wp.tid()
+        a = particle[i]
+        wp.atomic_add(momentum, load[i], mass[a] * v[a])
+
+    @wp.kernel(enable_backward=False, module="unique")
+    def region_velocity(
+        mode: wp.array(dtype=wp.int32),
+        velocity: wp.array(dtype=vec3),
+        force: wp.array(dtype=vec3),
+        factor: wp.array(dtype=real),
+        total_mass: wp.array(dtype=real),
+        momentum: wp.array(dtype=vec3),
+        impulse_dt: real,
+        v_rigid: wp.array(dtype=vec3),
+    ):
+        """The rigid velocity of region k [m/s]: prescribed, or from its free momentum and the
+        impulse impulse_dt F f(t) of its applied force."""
+        k = wp.tid()
+        if mode[k] == MODE_VELOCITY:
+            v_rigid[k] = velocity[k] * factor[k]
+        else:
+            v_rigid[k] = (momentum[k] + impulse_dt * factor[k] * force[k]) / total_mass[k]
+
+    @wp.kernel(enable_backward=False, module="unique")
+    def assign(
+        particle: wp.array(dtype=wp.int32),
+        load: wp.array(dtype=wp.int32),
+        mass: wp.array(dtype=real),
+        v_rigid: wp.array(dtype=vec3),
+        v: wp.array(dtype=vec3),
+        impulse: wp.array(dtype=vec3),
+    ):
+        """Set the region's particles to its rigid velocity, summing the drive's impulse [N s]."""
+        i = wp.tid()
+        a = particle[i]
+        k = load[i]
+        wp.atomic_add(impulse, k, mass[a] * (v_rigid[k] - v[a]))
+        v[a] = v_rigid[k]
+
+    @wp.kernel(enable_backward=False, module="unique")
+    def start_velocity(first: wp.array(dtype=wp.int32), v: wp.array(dtype=vec3), v_start: wp.array(dtype=vec3)):
+        """The rigid velocity at the step's start: that of the region's first particle (all alike)."""
+        k = wp.tid()
+        v_start[k] = v[first[k]]
+
+    @wp.kernel(enable_backward=False, module="unique")
+    def assign_virtual(
+        point: wp.array(dtype=wp.int32),
+        load: wp.array(dtype=wp.int32),
+        mode: wp.array(dtype=wp.int32),
+        velocity: wp.array(dtype=vec3),
+        factor_half: wp.array(dtype=real),
+        v_start: wp.array(dtype=vec3),
+        v: wp.array(dtype=vec3),
+    ):
+        """Half-step velocity of the regions' virtual points: v̄ f(t + Δt/2) if prescribed, else the
+        rigid velocity at the step's start."""
+        i = wp.tid()
+        k = load[i]
+        if mode[k] == MODE_VELOCITY:
+            v[point[i]] = velocity[k] * factor_half[k]
+        else:
+            v[point[i]] = v_start[k]
+
+    return sum_momentum, region_velocity, assign, start_velocity, assign_virtual
+
+
+class RigidRegions:
+    """The rigid regions of a model: their velocities, and the contact force each exerts."""
+
+    def __init__(self, model):
+        self.model = model
+        m, real, vec3 = model, model.spec.real, model.spec.vec3
+        loads = [ld for ld in model.scene.loads if ld.kind in RIGID_LOAD_KINDS]
+        self.names = [ld.name for ld in loads]
+        self.functions = [ld.time_function for ld in loads]
+        k, dev = max(len(loads), 1), model.device
+        self.mode = wp.array([RIGID_LOAD_KINDS[ld.kind] for ld in loads] or [0], dtype=wp.int32, device=dev)
+        self.velocity = wp.array([ld.velocity for ld in loads] or [(0.0,) * 3], dtype=vec3, device=dev)
+        self.force = wp.array([ld.force for ld in loads] or [(0.0,) * 3], dtype=vec3, device=dev)
+        mass = np.zeros(k)
+        np.add.at(mass, m.region_load.numpy(), m.particle_mass.numpy()[m.region_particle.numpy()])
+        self.mass = mass
+        """(K,) mass of each region's real particles [kg per m in 2D]."""
+        self.total_mass = wp.array(np.maximum(mass, 1e-300), dtype=real, device=dev)
+        self.factor = wp.zeros(k, dtype=real, device=dev)
+        self.factor_half = wp.zeros(k, dtype=real, device=dev)
+        first = np.zeros(k, dtype=np.int32)
+        for index in range(len(loads)):
+            members = m.region_particle.numpy()[m.region_load.numpy() == index]
+            first[index] = members[0] if len(members) else 0
+        self.first = wp.array(first, dtype=wp.int32, device=dev)
+        self.momentum = wp.zeros(k, dtype=vec3, device=dev)
+        self.impulse = wp.zeros(k, dtype=vec3, device=dev)
+        self.v_rigid = wp.zeros(k, dtype=vec3, device=dev)
+        self.v_start = wp.zeros(k, dtype=vec3, device=dev)
+        self.dt = 1.0
+        self._applied = False
+
+    @property
+    def count(self) -> int:
+        return len(self.names)
+
+    def begin_step(self, v, t: float, dt: float) -> None:
+        """Start a step at time t [s] of size dt [s] from the particle velocities ``v``: the load
+        factors, the rigid velocities at the start, the drive's impulse zeroed."""
+        self.dt = dt
+        if not self.count:
+            return
+        m = self.model
+        self.factor.assign(np.array([f(t + dt) for f in self.functions]))
+        self.factor_half.assign(np.array([f(t + 0.5 * dt) for f in self.functions]))
+        *_, start_velocity, _ = _kernels(m.spec)
+        launch(start_velocity, self.count, [self.first, v, self.v_start], m.device)
+        self.impulse.zero_()
+        self._applied = False
+
+    def _launch_sum(self, v) -> None:
+        m = self.model
+        sum_momentum, *_ = _kernels(m.spec)
+        launch(sum_momentum, m.region_count, [m.region_particle, m.region_load, m.particle_mass, v, self.momentum],
+               m.device)  # fmt: skip
+
+    def prescribe_virtual(self, v_half) -> None:
+        """Half-step velocity of the regions' virtual points."""
+        m = self.model
+        if not self.count:
+            return
+        *_, assign_virtual = _kernels(m.spec)
+        launch(assign_virtual, len(m.region_virtual),
+               [m.region_virtual, m.region_virtual_load, self.mode, self.velocity, self.factor_half, self.v_start,
+                v_half], m.device)  # fmt: skip
+
+    def prescribe(self, v) -> None:
+        """Make the regions' particles in ``v`` rigid (after a velocity update of the step)."""
+        m = self.model
+        if not self.count:
+            return
+        _, region_velocity, assign, *_ = _kernels(m.spec)
+        self.momentum.zero_()
+        self._launch_sum(v)
+        impulse_dt = 0.0 if self._applied else self.dt
+        launch(region_velocity, self.count,
+               [self.mode, self.velocity, self.force, self.factor, self.total_mass, self.momentum,
+                m.spec.real(impulse_dt), self.v_rigid], m.device)  # fmt: skip
+        self._applied = True
+        launch(assign, m.region_count, [m.region_particle, m.region_load, m.particle_mass, self.v_rigid, v,
+                                        self.impulse], m.device)  # fmt: skip
+
+    def contact_forces(self) -> np.ndarray:
+        """(K,3) force each region exerts on the rest of the body over the last step [N/m or N]."""
+        gravity = np.asarray(self.model.gravity, dtype=float)
+        dv = self.v_rigid.numpy().astype(float) - self.v_start.numpy().astype(float)
+        impulse = self.impulse.numpy().astype(float)
+        return self.mass[:, None] * gravity + (impulse - self.mass[:, None] * dv) / self.dt
