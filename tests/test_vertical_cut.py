@@ -8,6 +8,8 @@ H_c = 4 c N / γ = 2.91 m (the log-spiral upper bound 3.83 c N / γ = 2.79 m); t
 
 Measured (dx = 0.1 m, 1 core): H = 1.2 m: ε̄ = 0 everywhere and crest settlement 0.06 mm after 0.5 s;
 H = 2.2 m (0.79 H_c): the toe yields locally, crest settlement 1.3–1.5 mm, not growing;
+H = 2.6 m (0.89 H_c): crest settlement 4.6 mm at 0.6 s, slowing down (not a test);
+H = 2.9 m (1.0 H_c): 22 mm at 0.55 s, slowing down, then the run breaks down at 0.56 s (not a test);
 H = 3.2 m (1.15 H_c): fails, crest settlement 26 mm at 0.3 s and accelerating;
 H = 4 m (1.43 H_c, the shipped scene): fails, crest settlement 41 mm at 0.25 s; a plastic band from the
 toe reaching the top surface 2.3 m behind the crest (fitted chord of its middle 60 % at 61° to the
