@@ -1,0 +1,273 @@
+"""Pore pressure decides failure.
+
+1. A strip footing loaded fast on saturated c′–φ′ soil (scenes/undrained_footing.toml) fails where
+   the drained soil stands.
+2. A 2.2 m vertical cut in saturated ground drained at its face (scenes/saturated_cut.toml) fails
+   where the same cut dry stands.
+
+Footing:
+q = 60 kPa, ramped over 0.1 s: about 1.5–2 times the undrained capacity (2 + π) c_u with
+c_u = c′ cos φ′ + p′₀ sin φ′ = 6–8 kPa, about 0.2 of the drained capacity c′ N_c + γ′ B N_γ / 2 =
+272–324 kPa (scene header). The drained limit is the same scene dry with the buoyant density
+ρ − ρ_w (the effective-stress problem when the excess pore pressure stays zero).
+
+Measured (dx = 0.25 m, one core): saturated 79 mm settlement at 0.5 s (48 mm at 0.2 s, arrested by
+0.3 s as the excess pore pressure dissipates), excess pore pressure 1.5 m under the centre up to
+42 kPa; drained 23 mm at 0.2 s and 25 mm at 0.5 s.
+"""
+
+import dataclasses
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from warpsph.io import load_results
+from warpsph.runner import Run
+from warpsph.scene import Drainage
+from warpsph.scene_toml import load_scene
+
+SCENE = Path(__file__).resolve().parent.parent / "scenes" / "undrained_footing.toml"
+Q = 60e3
+"""Footing pressure [Pa]."""
+HYDROSTATIC_CENTRE = 1000.0 * 9.81 * 1.5
+"""p_w at the pore_pressure_centre probe, 1.5 m below the water table [Pa]."""
+
+
+def drained_twin(scene):
+    """The drained limit: the soil dry, with the buoyant density ρ − ρ_w, every face impermeable."""
+    scene.effects = dataclasses.replace(scene.effects, pore_water=False)
+    scene.materials = {name: dataclasses.replace(m, density=m.density - m.water_density, grain_density=None)
+                       for name, m in scene.materials.items()}  # fmt: skip
+    for item in [*scene.boundaries, *scene.loads]:
+        item.drainage = Drainage()
+    scene.probes = [p for p in scene.probes if p.field != "pore_pressure"]
+    scene.output.fields = [f for f in scene.output.fields if f not in ("pore_pressure", "darcy_velocity")]
+    scene.validate()
+    return scene
+
+
+def run(scene, tmp_path_factory, name):
+    scene.output.usd = False
+    out = tmp_path_factory.mktemp(name)
+    Run(scene, out).run()
+    return load_results(out / "results.h5")
+
+
+@pytest.fixture(scope="module")
+def saturated(tmp_path_factory):
+    return run(load_scene(SCENE), tmp_path_factory, "undrained_footing")
+
+
+@pytest.fixture(scope="module")
+def drained(tmp_path_factory):
+    return run(drained_twin(load_scene(SCENE)), tmp_path_factory, "drained_footing")
+
+
+def settlement(results, at=None):
+    times, s = results.series("settlement")
+    return -s[-1] if at is None else -float(np.interp(at, times, s))
+
+
+def test_the_water_carries_the_load(saturated):
+    """While loading, the excess pore pressure under the footing centre exceeds half the footing
+    pressure (measured 0.7 q), and later dissipates through the drained ground beside the footing."""
+    _, p = saturated.series("pore_pressure_centre")
+    assert p[0] == pytest.approx(HYDROSTATIC_CENTRE, rel=1e-9)
+    excess = p - HYDROSTATIC_CENTRE
+    assert excess.max() > 0.5 * Q
+    assert excess[-1] < 0.6 * excess.max()  # measured 16.5 of 42.1 kPa
+
+
+def test_saturated_footing_fails_where_the_drained_one_stands(saturated, drained):
+    """Drained: the settlement nearly stops once the ramp is over, less than 10 % more from 0.2 to
+    0.5 s (measured 23.4 to 24.8 mm, 6 %). Saturated, the same footing runs away during and after the
+    ramp, 48 mm at 0.2 s (64 % more by 0.5 s), and ends at more than 2.5 times the drained settlement
+    (measured 79 mm, 3.2 times)."""
+    assert settlement(drained) < 1.1 * settlement(drained, at=0.2)
+    assert settlement(drained) < 0.03  # measured 24 mm
+    assert settlement(saturated, at=0.2) > 1.5 * settlement(drained, at=0.2)
+    assert settlement(saturated) > 2.5 * settlement(drained)
+
+
+def test_saturated_footing_is_arrested_as_the_water_drains(saturated):
+    """After the excess pore pressure has fallen the strength comes back: the settlement moves less
+    than 2 % between 0.35 and 0.5 s, against 60 % between 0.15 and 0.3 s."""
+    assert settlement(saturated) < 1.02 * settlement(saturated, at=0.35)
+    assert settlement(saturated, at=0.3) > 1.6 * settlement(saturated, at=0.15)
+
+
+def test_plastic_zone_is_wider_undrained(saturated, drained):
+    """The undrained mechanism shears a wider zone than the drained response: particles with
+    ε̄ > 1 % (the footing-edge particle that accumulates strain in both runs counts once in each;
+    measured 155 against 27)."""
+    zone = {name: int((r.frame(len(r) - 1)["plastic_strain"] > 0.01).sum())
+            for name, r in (("saturated", saturated), ("drained", drained))}  # fmt: skip
+    assert zone["saturated"] > 2 * zone["drained"]
+
+
+
+@pytest.mark.slow
+def test_slowly_loaded_saturated_footing_stands(saturated, drained, tmp_path_factory):
+    """The same saturated footing with the load ramped over 2 s instead of 0.1 s: the water drains
+    while it is loaded (excess pore pressure under the centre at most 0.35 q against 0.7 q), and the
+    footing behaves like the drained one: settlement at 0.3 s after the ramp within 30 % of the
+    drained limit's (measured 26.9 against 24.8 mm) and less than half the fast one's (79 mm).
+    About 50 s on one core."""
+    scene = load_scene(SCENE)
+    scene.loads[0].time_function.duration = 2.0
+    scene.simulation.end_time = 2.3
+    scene.output.frame_interval = 0.25
+    slow = run(scene, tmp_path_factory, "slow_footing")
+    _, p = slow.series("pore_pressure_centre")
+    assert (p - HYDROSTATIC_CENTRE).max() < 0.5 * Q
+    assert settlement(slow) < 1.3 * settlement(drained)
+    assert settlement(slow) < 0.5 * settlement(saturated)
+
+
+
+CUT = Path(__file__).resolve().parent.parent / "scenes" / "saturated_cut.toml"
+CUT_HEIGHT = 2.2
+
+
+def dry_twin(scene):
+    """The same cut without pore water: same density, same zero-traction planes, no drainage."""
+    scene.effects = dataclasses.replace(scene.effects, pore_water=False)
+    for item in [*scene.boundaries, *scene.loads]:
+        item.drainage = Drainage()
+    scene.probes = [p for p in scene.probes if p.field != "pore_pressure"]
+    scene.output.fields = [f for f in scene.output.fields if f not in ("pore_pressure", "darcy_velocity")]
+    scene.validate()
+    return scene
+
+
+@pytest.fixture(scope="module")
+def wet_cut(tmp_path_factory):
+    return run(load_scene(CUT), tmp_path_factory, "saturated_cut")
+
+
+@pytest.fixture(scope="module")
+def dry_cut(tmp_path_factory):
+    return run(dry_twin(load_scene(CUT)), tmp_path_factory, "dry_cut")
+
+
+def crest(results, at=None):
+    times, c = results.series("crest_settlement")
+    return c[-1] if at is None else float(np.interp(at, times, c))
+
+
+def top_row_strain(results):
+    """(largest ε̄ in the ground-surface row, its initial x) in the last frame."""
+    x0 = results.frame(0)["position"]
+    strain = results.frame(len(results) - 1)["plastic_strain"]
+    top = np.isclose(x0[:, 1], CUT_HEIGHT)
+    return strain[top].max(), x0[top][np.argmax(strain[top]), 0]
+
+
+def test_dry_cut_stands(dry_cut):
+    """Dry, the 2.2 m cut (0.76 H_c) settles 2.1 mm at the crest (below 0.2 % of H) and stops: less than
+    1 mm more from 0.1 to 0.5 s (measured 0.5 mm); the ground surface does not yield (ε̄ < 1e-3,
+    measured 5e-4)."""
+    assert crest(dry_cut) < 2e-3 * CUT_HEIGHT
+    assert crest(dry_cut) - crest(dry_cut, at=0.1) < 1e-3
+    assert top_row_strain(dry_cut)[0] < 1e-3
+
+
+def test_saturated_cut_fails(wet_cut, dry_cut):
+    """Saturated, the same cut fails: the crest settles more than 0.5 % of H (measured 21 mm, 10 times
+    the dry cut's) and is still moving at the end (measured 1.9 mm in the last 0.1 s); a plastic band
+    reaches the ground surface behind the crest (top-row ε̄ above 1 %, measured 5.4 %), between 0.5 H
+    and 1.5 H behind it (measured 2.0 m = 0.91 H: flatter than the dry planar wedge at 45° + φ/2, which
+    meets the top at H/N = 0.70 H; about 48°)."""
+    assert crest(wet_cut) > 5e-3 * CUT_HEIGHT
+    assert crest(wet_cut) > 5 * crest(dry_cut)
+    assert crest(wet_cut) - crest(wet_cut, at=0.4) > 1e-3
+    strain, x = top_row_strain(wet_cut)
+    assert strain > 0.01
+    assert 0.5 * CUT_HEIGHT <= x <= 1.5 * CUT_HEIGHT
+
+
+def test_water_seeps_to_the_face(wet_cut):
+    """The face drains at once and the water flows to it: 1 m behind the face the pore pressure falls
+    from hydrostatic (16.7 kPa) but the soil stays wet (measured 9.3 kPa at 0.5 s, 56 %)."""
+    _, p = wet_cut.series("pore_pressure_behind_toe")
+    hydrostatic = 1000.0 * 9.81 * (CUT_HEIGHT - 0.5)
+    assert p[0] == pytest.approx(hydrostatic, rel=1e-9)
+    assert 0.3 * hydrostatic < p[-1] < 0.8 * hydrostatic
+
+
+LAYER = """
+[simulation]
+dim = 2
+dx = 0.1
+end_time = 0.3
+gravity = [0.0, -9.81]
+[effects]
+pore_water = true
+[materials.soil]
+density = 2000.0
+youngs_modulus = 20e6
+poisson_ratio = 0.3
+porosity = 0.3
+hydraulic_conductivity = 1e-4
+[[bodies]]
+name = "layer"
+material = "soil"
+min = [0.0, 0.0]
+max = [2.0, 2.2]
+geostatic = true
+[[boundaries]]
+name = "base"
+kind = "fixed"
+axis = "y"
+side = "min"
+[[boundaries]]
+name = "left"
+kind = "slip"
+axis = "x"
+position = 0.0
+side = "min"
+[[boundaries]]
+name = "right"
+kind = "slip"
+axis = "x"
+position = 2.0
+side = "max"
+[output]
+frame_interval = 0.3
+fields = ["pore_pressure"]
+usd = false
+"""
+DRAINED_TOP_PLANE = """
+[[loads]]
+name = "top"
+kind = "traction"
+axis = "y"
+position = 2.2
+side = "max"
+drainage = { kind = "drained", pore_pressure = 0.0 }
+[pressure]
+free_surface = "impermeable"
+"""
+
+
+def layer_excess_pressure(tmp_path_factory, text, name):
+    """Largest |excess pore pressure| [Pa] after 0.3 s in a saturated geostatic layer at rest."""
+    from warpsph.scene_toml import parse_scene
+
+    out = tmp_path_factory.mktemp(name)
+    Run(parse_scene(text, name=name), out).run()
+    results = load_results(out / "results.h5")
+    x0, last = results.frame(0)["position"], results.frame(len(results) - 1)
+    return np.abs(last["pore_pressure"] - 1000.0 * 9.81 * (2.2 - x0[:, 1])).max()
+
+
+def test_layer_at_rest_under_a_drained_top_plane(tmp_path_factory):
+    """Why the footing's ground surface is a drained plane: with one the layer stays at rest."""
+    assert layer_excess_pressure(tmp_path_factory, LAYER + DRAINED_TOP_PLANE, "layer_plane") < 1.0
+
+
+@pytest.mark.xfail(strict=True, reason="a drained free surface over a geostatic saturated layer builds +95 kPa "
+                   "of excess pore pressure in the row below it within 0.3 s (core, docs/scenes.md)")
+def test_layer_at_rest_under_a_drained_free_surface(tmp_path_factory):
+    assert layer_excess_pressure(tmp_path_factory, LAYER, "layer_free") < 0.01 * 1000.0 * 9.81 * 2.2
