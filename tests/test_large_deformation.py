@@ -16,10 +16,10 @@ import numpy as np
 import pytest
 
 from warpsph.builder import build
-from warpsph.runner import Run
 from warpsph.scene import Body, Boundary, Material, Scene, Simulation
 from warpsph.scene_toml import load_scene
 from warpsph.solver import Solver
+from test_resume import whole_and_resumed
 
 WIDTH, HEIGHT, SPEED = 0.5, 0.25, 2.0
 DENSITY, E, NU, G = 2000.0, 2.0e6, 0.3, 9.81
@@ -168,16 +168,6 @@ def test_regenerated_virtual_points_keep_the_sliding_block_on_its_floor():
 
 def test_resume_across_replans_is_bit_identical(tmp_path):
     scene = sliding_block(True, 1.0)
-    dt = scene.time_step
-    t_stop, t_end = 40.5 * dt, 81.5 * dt
-    scene.output.usd = False
-    scene.output.frame_interval = 20 * dt
-    whole = Run(scene, tmp_path / "whole", end_time=t_end)
-    whole.run()
-    first = Run(scene, tmp_path / "split", end_time=t_stop)
-    first.run()
-    second = Run(scene, tmp_path / "split", end_time=t_end, resume=True)
-    second.run()
+    scene.output.frame_interval = 20 * scene.time_step
+    whole, first, _ = whole_and_resumed(scene, tmp_path, 40, 81)
     assert whole.solver.layout.replans > first.solver.layout.replans > 0
-    for name, arr in whole.state.arrays().items():
-        assert np.array_equal(arr.numpy(), second.state.arrays()[name].numpy()), name
