@@ -87,3 +87,38 @@ def test_velocity_driven_cap_contact_force_balances_the_base(tmp_path):
 def test_a_force_load_needs_a_region():
     with pytest.raises(SceneError, match=r"loads\.cap\.region"):
         capped_column(Load(name="cap", kind="force", force=(0.0, -1.0, 0.0)), 1.0)
+
+
+@pytest.mark.parametrize("contact", ["rough", "smooth"])
+def test_smooth_contact_constrains_only_the_drive_direction(contact):
+    """A footing on a quarter of a block's top, driven down for 200 steps: rough, its points move as
+    one; smooth, their velocities along the drive are the footing's and across it their own. (Run on,
+    the soil particle at the footing's edge grows an upward mode, 0.8 m/s after 1 800 steps of a
+    0.01 m/s drive, rough or smooth: the footing-edge limit of docs/method.md.)"""
+    from warpsph.builder import build
+    from warpsph.solver import Solver
+
+    region = Region(min=(-1.0, 0.5 + 0.04, -1.0), max=(0.26, 1.0, 1.0))
+    scene = Scene(
+        name="footing_contact",
+        simulation=Simulation(dim=2, dx=0.05, end_time=1.0, artificial_viscosity=0.3),
+        materials={"soil": Material(name="soil", density=DENSITY, youngs_modulus=E, poisson_ratio=NU)},
+        bodies=[Body(name="soil", material="soil", min=(0.0, 0.0, 0.0), max=(1.0, 0.5, 0.0)),
+                Body(name="footing", material="soil", min=(0.0, 0.5, 0.0), max=(0.25, 0.7, 0.0))],  # fmt: skip
+        boundaries=[Boundary(name="base", kind="fixed", axis="y", position=0.0, side="min"),
+                    Boundary(name="centre", kind="symmetry", axis="x", position=0.0, side="min")],  # fmt: skip
+        loads=[Load(name="footing", kind="velocity", region=region, velocity=(0.0, -0.01, 0.0), contact=contact,
+                    time_function=TimeFunction(kind="ramp", duration=0.01))],  # fmt: skip
+    ).validate()
+    model, state = build(scene)
+    scratch = model.state()
+    scratch.assign(state)
+    solver, dt = Solver(model), scene.time_step
+    for k in range(200):
+        solver.step(state, scratch, k * dt, dt)
+        state, scratch = scratch, state
+    v = state.particle_v.numpy()[model.region_particle.numpy()]
+    np.testing.assert_allclose(v[:, 1], -0.01, rtol=1e-12)  # 200 steps: past the ramp
+    spread = np.ptp(v[:, 0])
+    print(f"\n{contact}: spread of the footing's horizontal velocities {spread:.2e} m/s")
+    assert spread == 0.0 if contact == "rough" else spread > 1e-4

@@ -327,6 +327,9 @@ class Load(_OnPlane):
     region: Region | None = None
     velocity: tuple[float, float, float] = (0.0, 0.0, 0.0)
     force: tuple[float, float, float] = (0.0, 0.0, 0.0)
+    contact: str = "rough"
+    """Rigid loads: "rough" (the region moves rigidly) or "smooth" (only along the drive direction;
+    across it the region's points move freely, so the contact carries no friction)."""
     time_function: TimeFunction = field(default_factory=TimeFunction)
     drainage: Drainage = field(default_factory=Drainage)
     """Pore-water condition of the loaded face (pore_water effect)."""

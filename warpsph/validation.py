@@ -546,8 +546,11 @@ def _check_boundary(boundary: Boundary, key: str, scene: Scene) -> None:
 def _check_load(load: Load, key: str, scene: Scene) -> None:
     check_types(load, key)
     check_choice(f"{key}.kind", load.kind, ("traction", "velocity", "force"))
+    check_choice(f"{key}.contact", load.contact, ("rough", "smooth"))
     if load.kind == "traction":
         _check_face(load, key, scene.simulation.dim)
+    elif load.contact == "smooth" and not any(load.velocity if load.kind == "velocity" else load.force):
+        raise SceneError(f"{key}.contact", f'a "smooth" {load.kind} load needs a nonzero {load.kind} (its direction)')
     elif load.region is None:
         raise SceneError(f"{key}.region", f'a {show(load.kind)} load needs region = {{ min = [...], max = [...] }}')
     for name in ("extent", "region"):

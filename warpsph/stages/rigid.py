@@ -31,7 +31,7 @@ RIGID_LOAD_KINDS = {"velocity": MODE_VELOCITY, "force": MODE_FORCE}
 
 @functools.cache
 def _kernels(spec: Spec):
-    real, vec3 = spec.real, spec.vec3
+    real, vec3, mat33 = spec.real, spec.vec3, spec.mat33
 
     @wp.kernel(enable_backward=False, module="unique")
     def sum_momentum(
@@ -70,16 +70,20 @@ def _kernels(spec: Spec):
         particle: wp.array(dtype=wp.int32),
         load: wp.array(dtype=wp.int32),
         mass: wp.array(dtype=real),
+        constrained: wp.array(dtype=mat33),
         v_rigid: wp.array(dtype=vec3),
         v: wp.array(dtype=vec3),
         impulse: wp.array(dtype=vec3),
     ):
-        """Set the region's particles to its rigid velocity, summing the drive's impulse [N s]."""
+        """Set the constrained part of the region's particle velocities (all of it for a rough
+        contact, the drive direction's for a smooth one) to the rigid velocity, summing the drive's
+        impulse [N s]."""
         i = wp.tid()
         a = particle[i]
         k = load[i]
-        wp.atomic_add(impulse, k, mass[a] * (v_rigid[k] - v[a]))
-        v[a] = v_rigid[k]
+        dv = constrained[k] * (v_rigid[k] - v[a])
+        wp.atomic_add(impulse, k, mass[a] * dv)
+        v[a] = v[a] + dv
 
     @wp.kernel(enable_backward=False, module="unique")
     def start_velocity(first: wp.array(dtype=wp.int32), v: wp.array(dtype=vec3), v_start: wp.array(dtype=vec3)):
@@ -95,18 +99,30 @@ def _kernels(spec: Spec):
         velocity: wp.array(dtype=vec3),
         factor_half: wp.array(dtype=real),
         v_start: wp.array(dtype=vec3),
+        constrained: wp.array(dtype=mat33),
         v: wp.array(dtype=vec3),
     ):
-        """Half-step velocity of the regions' virtual points: v̄ f(t + Δt/2) if prescribed, else the
-        rigid velocity at the step's start."""
+        """Half-step velocity of the regions' virtual points (its constrained part): v̄ f(t + Δt/2)
+        if prescribed, else the rigid velocity at the step's start."""
         i = wp.tid()
         k = load[i]
+        target = v_start[k]
         if mode[k] == MODE_VELOCITY:
-            v[point[i]] = velocity[k] * factor_half[k]
-        else:
-            v[point[i]] = v_start[k]
+            target = velocity[k] * factor_half[k]
+        c = point[i]
+        v[c] = v[c] + constrained[k] * (target - v[c])
 
     return sum_momentum, region_velocity, assign, start_velocity, assign_virtual
+
+
+def _constrained(load) -> np.ndarray:
+    """Projector onto the velocity components a rigid load prescribes: all (rough contact) or the drive
+    direction's, that of its velocity or force (smooth)."""
+    if load.contact == "rough":
+        return np.eye(3)
+    drive = np.asarray(load.velocity if load.kind == "velocity" else load.force, dtype=float)
+    d = drive / np.linalg.norm(drive)
+    return np.outer(d, d)
 
 
 class RigidRegions:
@@ -122,6 +138,9 @@ class RigidRegions:
         self.mode = wp.array([RIGID_LOAD_KINDS[ld.kind] for ld in loads] or [0], dtype=wp.int32, device=dev)
         self.velocity = wp.array([ld.velocity for ld in loads] or [(0.0,) * 3], dtype=vec3, device=dev)
         self.force = wp.array([ld.force for ld in loads] or [(0.0,) * 3], dtype=vec3, device=dev)
+        self.constrained = wp.array([_constrained(ld) for ld in loads] or [np.eye(3)], dtype=model.spec.mat33,
+                                    device=dev)  # fmt: skip
+        """(K,) projector onto the velocity a region makes rigid: I (rough), d ⊗ d (smooth)."""
         mass = np.zeros(k)
         np.add.at(mass, m.region_load.numpy(), m.particle_mass.numpy()[m.region_particle.numpy()])
         self.mass = mass
@@ -173,7 +192,7 @@ class RigidRegions:
         *_, assign_virtual = _kernels(m.spec)
         launch(assign_virtual, len(m.region_virtual),
                [m.region_virtual, m.region_virtual_load, self.mode, self.velocity, self.factor_half, self.v_start,
-                v_half], m.device)  # fmt: skip
+                self.constrained, v_half], m.device)  # fmt: skip
 
     def prescribe(self, v) -> None:
         """Make the regions' particles in ``v`` rigid (after a velocity update of the step)."""
@@ -188,8 +207,8 @@ class RigidRegions:
                [self.mode, self.velocity, self.force, self.factor, self.total_mass, self.momentum,
                 m.spec.real(impulse_dt), self.v_rigid], m.device)  # fmt: skip
         self._applied = True
-        launch(assign, m.region_count, [m.region_particle, m.region_load, m.particle_mass, self.v_rigid, v,
-                                        self.impulse], m.device)  # fmt: skip
+        launch(assign, m.region_count, [m.region_particle, m.region_load, m.particle_mass, self.constrained,
+                                        self.v_rigid, v, self.impulse], m.device)  # fmt: skip
 
     def contact_forces(self) -> np.ndarray:
         """(K,3) force each region exerts on the rest of the body over the last step [N/m or N]."""
