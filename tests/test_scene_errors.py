@@ -135,6 +135,9 @@ def chain(*edits):
     return apply
 
 
+RIGID = '\n[[loads]]\nname = "cap"\nkind = "{kind}"\n{extra}\n'
+"""A rigid load appended to BASE (``{kind}``, ``{extra}`` keys)."""
+
 BAD_CASES = {
     "two records on one face": (append('\n[[boundaries]]\nname = "lid"\nkind = "free"\naxis = "y"\nposition = 2.0\n'
                                        'side = "max"\n'), "loads.top"),
@@ -237,6 +240,19 @@ BAD_CASES = {
     "TOML syntax error": (edit("dx = 0.1", "dx = = 0.1"), ""),
     "polygon in 3D": (chain(edit("dim = 2", "dim = 3"), edit("max = [0.5, 2.0]", "max = [0.5, 2.0, 0.5]"),
                             append(TRIANGLE_IN_3D)), "bodies.wedge.shape"),
+    "string large_deformation": (edit("end_time = 0.5", 'end_time = 0.5\nlarge_deformation = "yes"'),
+                                 "simulation.large_deformation"),
+    "unknown virtual_points": (edit("end_time = 0.5", 'end_time = 0.5\nvirtual_points = "remeshed"'),
+                               "simulation.virtual_points"),
+    "force load without region": (append(RIGID.format(kind="force", extra="force = [0, -1000]")), "loads.cap.region"),
+    "unknown contact": (append(RIGID.format(kind="velocity", extra='velocity = [0, -0.1]\ncontact = "sticky"\n'
+                                                                   "region = { min = [0, 1.9] }")),
+                        "loads.cap.contact"),
+    "smooth contact without a drive direction": (append(RIGID.format(kind="force", extra='contact = "smooth"\n'
+                                                                     "region = { min = [0, 1.9] }")),
+                                                 "loads.cap.contact"),
+    "reaction probe naming nothing": (append('\n[[probes]]\nname = "r"\nkind = "reaction"\nfield = "y"\n'
+                                             'boundary = "cap"\n'), "probes.r.boundary"),
 }
 
 
