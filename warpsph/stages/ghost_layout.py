@@ -25,8 +25,8 @@ from warpsph.sph.spec import Spec
 GHOST_MARGIN = 0.25
 """Ghost band beyond the support radius 2h, as a fraction of 2h (room for motion between plans)."""
 CONTACT = 0.8
-"""A particle closer than this to a fixed or slip plane, as a fraction of Δx, joins it (large
-deformation). Measured on a block dropped onto a fixed floor (tests/test_large_deformation.py): the
+"""A particle closer than this to a fixed or slip wall (not a symmetry plane), as a fraction of Δx,
+joins it (large deformation). Measured on a block dropped onto a fixed floor (tests/test_large_deformation.py): the
 mirror ghosts hold its bottom row 0.72 Δx above the plane, where it rocks and blows up by 0.3 s;
 joining at 0.8 Δx, it lands and settles."""
 ON_PLANE = 1.0e-6
@@ -74,7 +74,7 @@ def _keep_inside_kernel(spec: Spec):
     @wp.kernel(enable_backward=False, module="unique")
     def keep_inside(
         plane_count: int,
-        contact: real,
+        contact: wp.array(dtype=real),
         plane_axis: wp.array(dtype=wp.int32),
         plane_position: wp.array(dtype=real),
         plane_sign: wp.array(dtype=real),
@@ -82,8 +82,8 @@ def _keep_inside_kernel(spec: Spec):
         q: wp.array(dtype=vec3),
         v: wp.array(dtype=vec3),
     ):
-        """A particle closer to a fixed or slip plane than ``contact`` [m], or beyond it, joins it:
-        it goes onto the plane and keeps no velocity into it (fixed: no velocity at all), as the
+        """A particle closer to a fixed or slip plane p than ``contact[p]`` [m], or beyond it, joins
+        it: it goes onto the plane and keeps no velocity into it (fixed: no velocity at all), as the
         particles that start on a plane do."""
         a = wp.tid()
         x = q[a]
@@ -92,7 +92,7 @@ def _keep_inside_kernel(spec: Spec):
             kind = plane_kind[p]
             if kind == PLANE_FIXED or kind == PLANE_SLIP:
                 m = plane_axis[p]
-                if plane_sign[p] * (x[m] - plane_position[p]) > -contact:
+                if plane_sign[p] * (x[m] - plane_position[p]) > -contact[p]:
                     x[m] = plane_position[p]
                     if kind == PLANE_FIXED:
                         u = vec3(real(0.0), real(0.0), real(0.0))
@@ -155,6 +155,11 @@ class GhostLayout:
             self.sets.append(_SetLayout(model, "virtual"))
         self.reference: list = [None] * len(self.sets)
         self._largest = wp.zeros(1, dtype=model.spec.real, device=model.device)
+        # symmetry planes are not walls: material only may not cross them (joining them at 0.8 Δx
+        # piled particles onto the plane and onto a corner: measured, a collapsing column's centre)
+        contact = [0.0 if b.kind == "symmetry" else CONTACT * model.dx for b in model.scene.boundaries]
+        contact += [0.0] * (model.plane_count - len(contact))
+        self.plane_contact = wp.array(contact or [0.0], dtype=model.spec.real, device=model.device)
         self.replans = 0
         """Number of re-plans so far [-]."""
 
@@ -162,7 +167,7 @@ class GhostLayout:
         """Put owned real particles that crossed a fixed or slip plane back onto it."""
         m = self.model
         launch(_keep_inside_kernel(m.spec), m.particle_count,
-               [m.plane_count, m.spec.real(CONTACT * m.dx), m.plane_axis, self.plane_position, m.plane_sign, m.plane_kind, q, v], m.device)
+               [m.plane_count, self.plane_contact, m.plane_axis, self.plane_position, m.plane_sign, m.plane_kind, q, v], m.device)
 
     def _positions(self, state) -> list:
         return [state.particle_q, state.virtual_q][: len(self.sets)]
