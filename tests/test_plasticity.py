@@ -52,6 +52,15 @@ def _kernels(spec: Spec, yield_name: str):
     potential_value, potential_gradient = fn.potential_value, fn.potential_gradient
     perzyna_strain_rate, substep_count = fn.perzyna_strain_rate, fn.substep_count
     relaxation_step, source_increment = fn.relaxation_step, fn.source_increment
+    tension_cutoff = fn.tension_cutoff
+
+    @wp.kernel(enable_backward=False, module="unique")
+    def cutoff(sigma: wp.array(dtype=mat33), m: Material, out: wp.array(dtype=mat33), removed: wp.array(dtype=real)):
+        """Per state: the tension cut-off's stress and the mean stress it removed [Pa]."""
+        i = wp.tid()
+        s, r = tension_cutoff(sigma[i], real(0.0), m)
+        out[i] = s
+        removed[i] = r
 
     @wp.kernel(enable_backward=False, module="unique")
     def evaluate(
@@ -110,7 +119,7 @@ def _kernels(spec: Spec, yield_name: str):
             sigma[k + 1] = s
             eps[k + 1] = e
 
-    kernels = {"evaluate": evaluate, "relax": relax}
+    kernels = {"evaluate": evaluate, "relax": relax, "cutoff": cutoff}
     if fn.radial_return is not None:
         radial_return = fn.radial_return
 
@@ -537,3 +546,31 @@ def test_float32_compiles_and_relaxes():
         g32 = evaluate(spec32, name, material(spec32, name), sigma)["df"]
         g64 = evaluate(Spec(), name, material(Spec(), name), sigma)["df"]
         assert np.abs(g32 - g64).max() < 1e-5 * np.abs(g64).max(), name
+
+
+@pytest.mark.parametrize("name", YIELD_NAMES)
+def test_tension_cutoff_caps_the_mean_stress_at_the_apex(name):
+    """Beyond the apex (F > 0 with no deviator) the mean stress is cut back to it, the deviator kept;
+    below it, and always for von Mises (no apex), the stress is untouched."""
+    spec = Spec(precision="float64")
+    m = material(spec, name)
+    rng = np.random.default_rng(7)
+    sigma = np.concatenate([random_states(rng, 50), random_states(rng, 50) + 200e3 * np.eye(3)])
+    n = len(sigma)
+    out, removed = wp.zeros(n, dtype=spec.mat33, device=DEVICE), wp.zeros(n, dtype=spec.real, device=DEVICE)
+    wp.launch(_kernels(spec, name)["cutoff"], dim=n,
+              inputs=[wp.array(sigma, dtype=spec.mat33, device=DEVICE), m, out, removed], device=DEVICE)  # fmt: skip
+    cut, removed = out.numpy(), removed.numpy()
+    mean, cut_mean = np.trace(sigma, axis1=1, axis2=2) / 3, np.trace(cut, axis1=1, axis2=2) / 3
+    np.testing.assert_allclose(cut - cut_mean[:, None, None] * np.eye(3), sigma - mean[:, None, None] * np.eye(3),
+                               atol=1e-9 * COHESION)  # fmt: skip
+    np.testing.assert_allclose(mean - cut_mean, removed, atol=1e-9 * COHESION)
+    hydrostatic = evaluate(spec, name, m, cut_mean[:, None, None] * np.eye(3))["f"]
+    beyond = removed > 0
+    if name == "von_mises":
+        assert not beyond.any()
+        return
+    assert beyond.sum() >= 50 and (~beyond).sum() >= 40  # the tensile states are cut, most others not
+    np.testing.assert_allclose(hydrostatic[beyond], 0.0, atol=1e-9 * COHESION)  # on the apex
+    assert np.all(evaluate(spec, name, m, mean[~beyond, None, None] * np.eye(3))["f"] <= 1e-9 * COHESION)
+    np.testing.assert_array_equal(cut[~beyond], sigma[~beyond])
