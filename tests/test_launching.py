@@ -54,12 +54,13 @@ def test_threaded_steps_are_bit_identical(threads, scheme, effects):
 
 @pytest.mark.parametrize("method", ["cg", "jacobi"])
 def test_blocked_pressure_solves_match_the_row_kernels(threads, method):
-    """The CPU's blocked, row-threaded CG and Jacobi (partial sums per 256-row block) take the same
-    iterations as the one-thread-per-row kernels with atomic dot products (the GPU path) and give
-    the same pressures to rounding, over five saturated steps of a 2 304-particle block."""
-    threads(2)
+    """The CPU's blocked, row-threaded CG and Jacobi (partial sums per 256-row block) give the same
+    bits on one and two threads, and take the same iterations as the one-thread-per-row kernels
+    with atomic dot products (the GPU path) to the same pressures up to rounding, over five
+    saturated steps of a 2 304-particle block (nine blocks, two chunks)."""
     results = []
-    for blocked in (True, False):
+    for blocked, n in ((True, 1), (True, 2), (False, 1)):
+        threads(n)
         scene = block_scene(2304, scheme="two_set", effects="saturated")
         scene.pressure.solver = method
         model, a = build(scene, "cpu", "float64")
@@ -69,7 +70,10 @@ def test_blocked_pressure_solves_match_the_row_kernels(threads, method):
         for k in range(5):
             solver.step(a, b, k * scene.time_step, scene.time_step)
             a, b = b, a
-        results.append((list(solver.projection.iterations), a.particle_pore_pressure.numpy()[: model.particle_count]))
-    (its_blocked, p_blocked), (its_rows, p_rows) = results
-    assert its_blocked == its_rows and min(its_rows) > 2
+        results.append((list(solver.projection.iterations), {name: arr.numpy() for name, arr in a.arrays().items()}))
+    (its_1, one), (its_2, two), (its_rows, rows) = results
+    assert its_1 == its_2 == its_rows and min(its_rows) > 2
+    for name, value in one.items():
+        assert np.array_equal(value, two[name]), name
+    p_blocked, p_rows = one["particle_pore_pressure"], rows["particle_pore_pressure"]
     assert np.allclose(p_blocked, p_rows, rtol=1e-9, atol=1e-9 * np.abs(p_rows).max())
