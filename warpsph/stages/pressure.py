@@ -246,7 +246,7 @@ def _kernels(spec: Spec):
         plane_position: wp.array(dtype=real), plane_sign: wp.array(dtype=real), drainage: wp.array(dtype=wp.int32),
         drained_lo: wp.array(dtype=vec3), drained_hi: wp.array(dtype=vec3), drained_pressure: wp.array(dtype=f64),
         head: wp.array(dtype=f64), inflow: wp.array(dtype=f64), water_table: f64, dirichlet: wp.array(dtype=wp.int32), value: wp.array(dtype=f64),
-        face_factor: wp.array(dtype=f64), weight: wp.array(dtype=f64), column: wp.array(dtype=wp.int32), sign: wp.array(dtype=f64),
+        face_factor: wp.array(dtype=f64), weight: wp.array(dtype=f64), column: wp.array(dtype=wp.int32),
         diag: wp.array(dtype=f64), rhs: wp.array(dtype=f64),
     ):  # fmt: skip
         a = first + wp.tid()
@@ -295,42 +295,40 @@ def _kernels(spec: Spec):
             if dirichlet[col] == 1:
                 b += w * s * value[col]
                 w = zero
-            weight[k] = w
+            weight[k] = w * s  # the ghost's parity folded in: A x = diag x − Σ weight x[column]
             column[k] = col
-            sign[k] = s
         diag[a] = d
         rhs[a] = b
 
     @wp.func
     def apply_row(a: int, offsets: wp.array(dtype=wp.int32), weight: wp.array(dtype=f64),
-                  column: wp.array(dtype=wp.int32), sign: wp.array(dtype=f64), diag: wp.array(dtype=f64),
-                  x: wp.array(dtype=f64)):  # fmt: skip
+                  column: wp.array(dtype=wp.int32), diag: wp.array(dtype=f64), x: wp.array(dtype=f64)):  # fmt: skip
         y = diag[a] * x[a]
         for k in range(offsets[a], offsets[a + 1]):
-            y -= weight[k] * sign[k] * x[column[k]]
+            y -= weight[k] * x[column[k]]
         return y
 
     @wp.kernel(enable_backward=False, module="unique")
     def matvec_dot(
         offsets: wp.array(dtype=wp.int32), weight: wp.array(dtype=f64), column: wp.array(dtype=wp.int32),
-        sign: wp.array(dtype=f64), diag: wp.array(dtype=f64), x: wp.array(dtype=f64), y: wp.array(dtype=f64),
+        diag: wp.array(dtype=f64), x: wp.array(dtype=f64), y: wp.array(dtype=f64),
         dot: wp.array(dtype=f64),
     ):  # fmt: skip
         """y = A x and dot += x·y."""
         a = wp.tid()
-        ya = apply_row(a, offsets, weight, column, sign, diag, x)
+        ya = apply_row(a, offsets, weight, column, diag, x)
         y[a] = ya
         wp.atomic_add(dot, 0, x[a] * ya)
 
     @wp.kernel(enable_backward=False, module="unique")
     def residual(
         offsets: wp.array(dtype=wp.int32), weight: wp.array(dtype=f64), column: wp.array(dtype=wp.int32),
-        sign: wp.array(dtype=f64), diag: wp.array(dtype=f64), x: wp.array(dtype=f64), rhs: wp.array(dtype=f64),
+        diag: wp.array(dtype=f64), x: wp.array(dtype=f64), rhs: wp.array(dtype=f64),
         r: wp.array(dtype=f64), norms: wp.array(dtype=f64),
     ):  # fmt: skip
         """r = b − A x; norms += (r·r, b·b)."""
         a = wp.tid()
-        ra = rhs[a] - apply_row(a, offsets, weight, column, sign, diag, x)
+        ra = rhs[a] - apply_row(a, offsets, weight, column, diag, x)
         r[a] = ra
         wp.atomic_add(norms, 0, ra * ra)
         wp.atomic_add(norms, 1, rhs[a] * rhs[a])
@@ -360,12 +358,12 @@ def _kernels(spec: Spec):
     @wp.kernel(enable_backward=False, module="unique")
     def jacobi_sweep(
         omega: f64, offsets: wp.array(dtype=wp.int32), weight: wp.array(dtype=f64), column: wp.array(dtype=wp.int32),
-        sign: wp.array(dtype=f64), diag: wp.array(dtype=f64), x: wp.array(dtype=f64), rhs: wp.array(dtype=f64),
+        diag: wp.array(dtype=f64), x: wp.array(dtype=f64), rhs: wp.array(dtype=f64),
         x_new: wp.array(dtype=f64), norms: wp.array(dtype=f64),
     ):  # fmt: skip
         """x_new = x + ω (b − A x)/diag; norms += (r·r, b·b) of x."""
         a = wp.tid()
-        ra = rhs[a] - apply_row(a, offsets, weight, column, sign, diag, x)
+        ra = rhs[a] - apply_row(a, offsets, weight, column, diag, x)
         x_new[a] = x[a] + omega * ra / diag[a]
         wp.atomic_add(norms, 0, ra * ra)
         wp.atomic_add(norms, 1, rhs[a] * rhs[a])
@@ -376,7 +374,7 @@ def _kernels(spec: Spec):
     @wp.kernel(enable_backward=False, module="unique")
     def residual_blocks(
         first: int, block: int, n: int, offsets: wp.array(dtype=wp.int32), weight: wp.array(dtype=f64),
-        column: wp.array(dtype=wp.int32), sign: wp.array(dtype=f64), diag: wp.array(dtype=f64),
+        column: wp.array(dtype=wp.int32), diag: wp.array(dtype=f64),
         x: wp.array(dtype=f64), rhs: wp.array(dtype=f64), r: wp.array(dtype=f64), z: wp.array(dtype=f64),
         partial: wp.array(dtype=f64),
     ):  # fmt: skip
@@ -386,7 +384,7 @@ def _kernels(spec: Spec):
         rr = zero
         bb = zero
         for a in range(i * block, wp.min(n, (i + 1) * block)):
-            ra = rhs[a] - apply_row(a, offsets, weight, column, sign, diag, x)
+            ra = rhs[a] - apply_row(a, offsets, weight, column, diag, x)
             za = ra / diag[a]
             r[a] = ra
             z[a] = za
@@ -406,14 +404,14 @@ def _kernels(spec: Spec):
     @wp.kernel(enable_backward=False, module="unique")
     def matvec_blocks(
         first: int, block: int, n: int, offsets: wp.array(dtype=wp.int32), weight: wp.array(dtype=f64),
-        column: wp.array(dtype=wp.int32), sign: wp.array(dtype=f64), diag: wp.array(dtype=f64),
+        column: wp.array(dtype=wp.int32), diag: wp.array(dtype=f64),
         d: wp.array(dtype=f64), Ad: wp.array(dtype=f64), partial: wp.array(dtype=f64),
     ):  # fmt: skip
         """Ad = A d; partial[0] = d·Ad of the block."""
         i = first + wp.tid()
         dad = zero
         for a in range(i * block, wp.min(n, (i + 1) * block)):
-            y = apply_row(a, offsets, weight, column, sign, diag, d)
+            y = apply_row(a, offsets, weight, column, diag, d)
             Ad[a] = y
             dad += d[a] * y
         partial[3 * i] = dad
@@ -442,7 +440,7 @@ def _kernels(spec: Spec):
     @wp.kernel(enable_backward=False, module="unique")
     def jacobi_blocks(
         first: int, block: int, n: int, omega: f64, offsets: wp.array(dtype=wp.int32), weight: wp.array(dtype=f64),
-        column: wp.array(dtype=wp.int32), sign: wp.array(dtype=f64), diag: wp.array(dtype=f64),
+        column: wp.array(dtype=wp.int32), diag: wp.array(dtype=f64),
         x: wp.array(dtype=f64), rhs: wp.array(dtype=f64), x_new: wp.array(dtype=f64), partial: wp.array(dtype=f64),
     ):  # fmt: skip
         """x_new = x + ω (b − A x)/diag; partial = (r·r, b·b) of x in the block."""
@@ -450,7 +448,7 @@ def _kernels(spec: Spec):
         rr = zero
         bb = zero
         for a in range(i * block, wp.min(n, (i + 1) * block)):
-            ra = rhs[a] - apply_row(a, offsets, weight, column, sign, diag, x)
+            ra = rhs[a] - apply_row(a, offsets, weight, column, diag, x)
             x_new[a] = x[a] + omega * ra / diag[a]
             rr += ra * ra
             bb += rhs[a] * rhs[a]
@@ -503,7 +501,7 @@ class PressureProjection:
         self.blocks = (n + SOLVE_BLOCK - 1) // SOLVE_BLOCK
         self.partial = wp.zeros(3 * max(self.blocks, 1), dtype=f64, device=dev)
         self.partial_host = self.partial.numpy().reshape(-1, 3) if self.blocked else None  # shares the memory
-        self.weight = self.column = self.sign = None
+        self.weight = self.column = None
         on, val = self._drained_plane_particles()
         self.on_drained = wp.array(on, dtype=wp.int32, device=dev)
         self.face_factor = wp.array(self._face_factor(), dtype=f64, device=dev)
@@ -594,12 +592,11 @@ class PressureProjection:
             size = nl.indices.shape[0]
             self.weight = wp.zeros(size, dtype=wp.float64, device=dev)
             self.column = wp.zeros(size, dtype=wp.int32, device=dev)
-            self.sign = wp.zeros(size, dtype=wp.float64, device=dev)
         wp.copy(self.p_old, si.particle_pore_pressure)
         gravity = m.spec.vec3(*pw.gravity)
         drained_surface = int(self.settings.free_surface == "drained")
-        launch_rows(self.k["mark_dirichlet"], n,
-               [n, self.on_drained, self.drained_value, rf.smallest_eigenvalue, drained_surface, si.particle_q,
+        launch(self.k["mark_dirichlet"], n,
+               [0, n, self.on_drained, self.drained_value, rf.smallest_eigenvalue, drained_surface, si.particle_q,
                 m.particle_material, pw.material_water_density, gravity, wp.float64(pw.water_table), self.dirichlet,
                 self.value], dev)  # fmt: skip
         args = self._plane_args()
@@ -609,7 +606,7 @@ class PressureProjection:
                 si.particle_density, m.particle_material, pw.material_permeability, pw.material_inv_biot,
                 pw.material_water_density, gravity, so.particle_v, self.div_v_star, self.p_old,
                 m.particle_ghost_source, m.particle_ghost_planes, *args, wp.float64(pw.water_table), self.dirichlet,
-                self.value, self.face_factor, self.weight, self.column, self.sign, self.diag, self.rhs], dev)  # fmt: skip
+                self.value, self.face_factor, self.weight, self.column, self.diag, self.rhs], dev)  # fmt: skip
         # solve into a copy of pⁿ (owned part), Dirichlet rows already at their values
         x = so.particle_pore_pressure
         wp.copy(x, self.p_old, count=n)
@@ -629,9 +626,9 @@ class PressureProjection:
                 warnings.warn(message + " (further misses are counted in run.json)", stacklevel=2)
         # v = v* − (Δt/ρ) ∇(p − pⁿ), along the same path
         self.update_ghosts(si.particle_q, x, homogeneous=False)
-        launch_rows(self.k["difference"], m.particle_total, [x, self.p_old, self.dp], dev)
+        launch(self.k["difference"], m.particle_total, [0, x, self.p_old, self.dp], dev)
         self._gradient(si, self.dp, homogeneous=True)
-        launch_rows(self.k["correct_velocity"], n, [real(dt), self.grad, so.particle_density, so.particle_v], dev)
+        launch(self.k["correct_velocity"], n, [0, real(dt), self.grad, so.particle_density, so.particle_v], dev)
 
     def _gradient(self, state, values, homogeneous: bool) -> None:
         """``self.grad`` = ∇values at the real particles via the virtual points (geometry of ``state``);
@@ -662,7 +659,7 @@ class PressureProjection:
         return w.numpy()
 
     def _matrix(self):
-        return [self.solver.real_to_real.offsets, self.weight, self.column, self.sign, self.diag]
+        return [self.solver.real_to_real.offsets, self.weight, self.column, self.diag]
 
     def _cg(self, x):
         n, dev, s = self.model.particle_count, self.model.device, self.settings
@@ -693,19 +690,23 @@ class PressureProjection:
             rz = rz_new
         return s.max_iterations, math.sqrt(rr / max(bb, 1e-300))
 
-    def _blocks(self, kernel, inputs: list) -> None:
-        """Launch a blocked kernel over the rows, SOLVE_BLOCK per item, on the CPU threads."""
-        n = self.model.particle_count
-        launch_rows(self.k[kernel], self.blocks, [SOLVE_BLOCK, n, *inputs], self.model.device,
-                    rows_per_item=SOLVE_BLOCK)  # fmt: skip
+    def _blocks(self, kernel, inputs: list, threaded: bool = True) -> None:
+        """Launch a blocked kernel over the rows, SOLVE_BLOCK per item: on the CPU threads when
+        ``threaded`` (the matrix passes), else on this thread (vector updates of a few tens of µs,
+        which a second thread's hand-off would slow down)."""
+        n, dev = self.model.particle_count, self.model.device
+        if threaded:
+            launch_rows(self.k[kernel], self.blocks, [SOLVE_BLOCK, n, *inputs], dev, rows_per_item=SOLVE_BLOCK)
+        else:
+            launch(self.k[kernel], self.blocks, [0, SOLVE_BLOCK, n, *inputs], dev)
 
     def _sum(self, column: int) -> float:
         """Sum of the blocks' partial sums ``column``, in block order (the same for any thread count)."""
         return float(self.partial_host[: self.blocks, column].sum())
 
     def _cg_blocked(self, x):
-        """Jacobi-preconditioned CG as :meth:`_cg`, row-threaded, three launches and two host reads
-        per iteration: d = z + βd; Ad = A d with d·Ad; x, r, z with r·z and r·r."""
+        """Jacobi-preconditioned CG as :meth:`_cg`, three launches and two host reads per iteration:
+        d = z + βd; Ad = A d with d·Ad (row-threaded); x, r, z with r·z and r·r."""
         n, dev, s = self.model.particle_count, self.model.device, self.settings
         r, z, d, Ad = self.work
         self._blocks("residual_blocks", [*self._matrix(), x, self.rhs, r, z, self.partial])
@@ -716,12 +717,13 @@ class PressureProjection:
         d.zero_()
         beta = 0.0
         for it in range(1, s.max_iterations + 1):
-            launch_rows(self.k["cg_direction_rows"], n, [wp.float64(beta), z, d], dev)
+            launch(self.k["cg_direction_rows"], n, [0, wp.float64(beta), z, d], dev)
             self._blocks("matvec_blocks", [*self._matrix(), d, Ad, self.partial])
             dAd = self._sum(0)
             if dAd <= 0.0:
                 break
-            self._blocks("cg_update_blocks", [wp.float64(rz / dAd), d, Ad, self.diag, x, r, z, self.partial])
+            self._blocks("cg_update_blocks", [wp.float64(rz / dAd), d, Ad, self.diag, x, r, z, self.partial],
+                         threaded=False)  # fmt: skip
             rz_new, rr = self._sum(0), self._sum(1)
             if rr <= target:
                 return it, math.sqrt(rr / bb)
