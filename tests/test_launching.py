@@ -8,6 +8,7 @@ from warpsph import launching
 from warpsph.bench import block_scene
 from warpsph.builder import build
 from warpsph.solver import Solver
+from warpsph.stages import pressure
 
 
 @wp.kernel(enable_backward=False)
@@ -53,11 +54,12 @@ def test_threaded_steps_are_bit_identical(threads, scheme, effects):
 
 
 @pytest.mark.parametrize("method", ["cg", "jacobi"])
-def test_blocked_pressure_solves_match_the_row_kernels(threads, method):
+def test_blocked_pressure_solves_match_the_row_kernels(threads, method, monkeypatch):
     """The CPU's blocked, row-threaded CG and Jacobi (partial sums per 256-row block) give the same
     bits on one and two threads, and take the same iterations as the one-thread-per-row kernels
     with atomic dot products (the GPU path) to the same pressures up to rounding, over five
     saturated steps of a 2 304-particle block (nine blocks, two chunks)."""
+    monkeypatch.setattr(pressure, "SOLVE_ROWS_PER_THREAD", 1024)  # split the solve of this small block too
     results = []
     for blocked, n in ((True, 1), (True, 2), (False, 1)):
         threads(n)

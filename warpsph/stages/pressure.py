@@ -41,6 +41,10 @@ ETA = 0.1
 SOLVE_BLOCK = 256
 """Rows per item of the blocked CG and Jacobi kernels on the CPU: the unit of their partial sums,
 fixed whatever the thread count (so the sums, and the solves, are bit-identical for any count)."""
+SOLVE_ROWS_PER_THREAD = 4096
+"""Fewest matrix rows worth another CPU thread in the solve's passes: a 16 384-row matrix pass took
+465 µs on one thread, 236 µs for half of it and 308 µs for both halves on two threads, so a thread
+hand-off costs ≈ 75 µs ≈ 2 600 rows of work (docs/performance.md)."""
 
 
 def laplacian_scale(kind: str, dim: int, ratio: float) -> float:
@@ -696,7 +700,8 @@ class PressureProjection:
         which a second thread's hand-off would slow down)."""
         n, dev = self.model.particle_count, self.model.device
         if threaded:
-            launch_rows(self.k[kernel], self.blocks, [SOLVE_BLOCK, n, *inputs], dev, rows_per_item=SOLVE_BLOCK)
+            launch_rows(self.k[kernel], self.blocks, [SOLVE_BLOCK, n, *inputs], dev, rows_per_item=SOLVE_BLOCK,
+                        min_rows_per_thread=SOLVE_ROWS_PER_THREAD)  # fmt: skip
         else:
             launch(self.k[kernel], self.blocks, [0, SOLVE_BLOCK, n, *inputs], dev)
 
