@@ -79,3 +79,12 @@ def test_blocked_pressure_solves_match_the_row_kernels(threads, method, monkeypa
         assert np.array_equal(value, two[name]), name
     p_blocked, p_rows = one["particle_pore_pressure"], rows["particle_pore_pressure"]
     assert np.allclose(p_blocked, p_rows, rtol=1e-9, atol=1e-9 * np.abs(p_rows).max())
+
+
+def test_bench_solve_runs(capsys):
+    """python -m warpsph.bench_solve: a smoke run of both solve paths on 1 and 2 threads."""
+    from warpsph.bench_solve import main
+
+    main(["--size", "256", "--cycles", "1", "--steps", "1", "--solve-only"])
+    out = capsys.readouterr().out
+    assert out.count("threads 1") == 2 and out.count("threads 2") == 2 and "iterations" in out

@@ -56,34 +56,38 @@ def main(argv=None) -> None:
         spent[0] += time.perf_counter() - start
 
     pressure.PressureProjection.project = timed_project
-    x0, x = wp.clone(projection.p_old), wp.clone(projection.p_old)  # the last step's system and start
-    configs = [(blocked, t) for t in args.threads for blocked in (False, True)]
-    results = collections.defaultdict(list)
-    for cycle in range(args.cycles + 1):
-        for blocked, threads in configs:
-            launching.set_cpu_threads(threads)
-            projection.blocked = blocked
-            projection.iterations.clear()
-            if args.solve_only:
-                wp.copy(x, x0)
-                solve = {(False, "cg"): projection._cg, (True, "cg"): projection._cg_blocked,
-                         (False, "jacobi"): projection._jacobi, (True, "jacobi"): projection._jacobi_blocked}
-                start = time.perf_counter()
-                its, _ = solve[(blocked, args.solver)](x)
-                row = ((time.perf_counter() - start) * 1e3, float("nan"), its)
-            else:
-                a.assign(snapshot)
-                spent[0] = 0.0
-                start = time.perf_counter()
-                for k in range(args.steps):
-                    solver.step(a, b, (3 + k) * dt, dt)
-                    a, b = b, a
-                its = projection.iterations
-                row = ((time.perf_counter() - start) / args.steps * 1e3, spent[0] / args.steps * 1e3,
-                       sum(its) / len(its))  # fmt: skip
-            if cycle > 0:
-                results[(blocked, threads)].append(row)
-    pressure.PressureProjection.project = project
+    threads_before = launching.cpu_threads()
+    try:
+        x0, x = wp.clone(projection.p_old), wp.clone(projection.p_old)  # the last step's system and start
+        configs = [(blocked, t) for t in args.threads for blocked in (False, True)]
+        results = collections.defaultdict(list)
+        for cycle in range(args.cycles + 1):
+            for blocked, threads in configs:
+                launching.set_cpu_threads(threads)
+                projection.blocked = blocked
+                projection.iterations.clear()
+                if args.solve_only:
+                    wp.copy(x, x0)
+                    solve = {(False, "cg"): projection._cg, (True, "cg"): projection._cg_blocked,
+                             (False, "jacobi"): projection._jacobi, (True, "jacobi"): projection._jacobi_blocked}
+                    start = time.perf_counter()
+                    its, _ = solve[(blocked, args.solver)](x)
+                    row = ((time.perf_counter() - start) * 1e3, float("nan"), its)
+                else:
+                    a.assign(snapshot)
+                    spent[0] = 0.0
+                    start = time.perf_counter()
+                    for k in range(args.steps):
+                        solver.step(a, b, (3 + k) * dt, dt)
+                        a, b = b, a
+                    its = projection.iterations
+                    row = ((time.perf_counter() - start) / args.steps * 1e3, spent[0] / args.steps * 1e3,
+                           sum(its) / len(its))  # fmt: skip
+                if cycle > 0:
+                    results[(blocked, threads)].append(row)
+    finally:
+        pressure.PressureProjection.project = project
+        launching.set_cpu_threads(threads_before)
     what = "one solve" if args.solve_only else f"step ({args.steps} steps a trial)"
     print(f"saturated block, {model.particle_count} particles, {args.solver}, {args.cycles} cycles; "
           f"ms per {what} and of the projection: min / median")  # fmt: skip
