@@ -12,6 +12,7 @@ import pytest
 from warpsph.cli import main
 from warpsph.errors import SceneError
 from warpsph.scene_toml import load_scene
+from warpsph.study import metrics
 from warpsph.study.execute import run_studies
 from warpsph.study.report import pareto_front, write_reports
 from warpsph.study.spec import load_study
@@ -27,11 +28,12 @@ def study_file(tmp_path, scenes_dir, body, head=HEAD, name="s"):
 
 
 def test_shipped_studies_parse():
-    for name, metric in (("wave_column", "wave_column"), ("terzaghi", "terzaghi")):
+    for name, metric, ladder in (("wave_column", "wave_column", 4), ("terzaghi", "terzaghi", 4),
+                                 ("footing_prandtl", "prandtl_footing", 3)):  # fmt: skip
         study = load_study(STUDIES / f"{name}.toml")
         cases = study.cases()
         assert study.metric.name == metric and len({c.id for c in cases}) == len(cases)
-        assert len(study.sweeps[0][1]["simulation.dx"]) >= 4
+        assert len(study.sweeps[0][1]["simulation.dx"]) >= ladder
         assert all(set(c.settings) == set(study.axes) for c in cases)
 
 
@@ -65,7 +67,8 @@ def test_overrides_pick_list_entries_by_name(scenes_dir):
     ('[study]\nscene = "nope.toml"\nmetric = "wave_column"\n', "study.scene: cannot read scene file"),
     (HEAD + "speed = 1\n", "study.speed: unknown key"),
     (HEAD.replace("wave_column", "wave") + '[axes]\n"simulation.dx" = [0.1]\n', 'study.metric: unknown metric "wave"'),
-    (HEAD.replace('"wave_column"', '"prandtl_footing"'), "study.metric: prandtl_footing: the limit-load error"),
+    (HEAD.replace('"wave_column"', '"prandtl_footing"') + '[axes]\n"simulation.dx" = [0.1]\n',
+     "study.metric: prandtl_footing needs the footing scene's layout"),
     (HEAD.replace('"wave_column"', '"terzaghi"') + '[axes]\n"simulation.dx" = [0.1]\n',
      "study.metric: terzaghi needs effects.pore_water = true"),
     (HEAD + 'error = "l1"\n', "study.error: must be one of profile_l2, front_speed_error"),
@@ -85,6 +88,46 @@ def test_bad_study_file_is_one_line_and_exit_2(tmp_path, scenes_dir, capsys, tex
     assert main(["study", str(path), "--dry-run", "--out", str(tmp_path / "out")]) == 2
     err = capsys.readouterr().err.strip().splitlines()
     assert len(err) == 1 and key in err[0] and str(path) in err[0], err
+
+
+def test_footing_window_and_plateau_on_a_synthetic_series():
+    """The settlement window follows Δx (the test's windows at 0.05 and 0.1 m); the plateau is the
+    mean of the pressure inside it, and the error compares it with (2 + π) c_u."""
+    assert metrics.footing_window(0.05) == pytest.approx((0.018, 0.024))
+    assert metrics.footing_window(0.1) == pytest.approx((0.012, 0.015))
+    assert metrics.footing_window(0.075) == pytest.approx((0.015, 0.0195))
+    settlement = np.linspace(0.0, 0.03, 300)
+    inside = (settlement >= 0.012) & (settlement <= 0.015)
+    pressure = np.where(inside, 46.0e3, 1.0e6)  # wrong outside the window
+    pressure[inside] += np.resize([1e3, -1e3], inside.sum())  # ± 1 kPa, an even count: mean 46 kPa
+    mean, spread, count = metrics.footing_plateau(settlement, pressure, metrics.footing_window(0.1))
+    assert count == inside.sum() == 30 and mean == pytest.approx(46.0e3) and spread == pytest.approx(1e3)
+    assert abs(mean / ((2 + math.pi) * 10e3) - 1) == pytest.approx(0.1053, abs=1e-4)
+    assert metrics.footing_plateau(settlement[:100], pressure[:100], (0.012, 0.015))[2] == 0  # never reached
+
+
+def test_footing_metric_on_a_short_coarse_run(monkeypatch):
+    """The metric runs the footing scene with B/2 and the piston following Δx, reads the probes over
+    its window and fails a run that is nowhere near the limit load (an elastic 1-2 mm window)."""
+    scene_path = Path(__file__).resolve().parent.parent / "scenes" / "footing_prandtl.toml"
+    scene = load_scene(scene_path, {"simulation.dx": 0.1})
+    metric = metrics.METRICS["prandtl_footing"]
+    metric.check(scene)
+    adjusted = metrics.footing_scene(scene)
+    assert adjusted.probes[0].scale == pytest.approx(1 / 0.55)  # footing particles at x = 0 ... 0.5
+    assert adjusted.loads[0].region.min[1] == pytest.approx(3.075) == adjusted.probes[1].region.min[1]
+    assert metrics.footing_scene(load_scene(scene_path, {"simulation.dx": 0.075})).probes[0].scale == pytest.approx(
+        1 / 0.4875)  # x = 0 ... 0.45  # fmt: skip
+    assert scene.probes[0].scale == pytest.approx(1 / 0.525)  # the scene itself is left alone
+    monkeypatch.setattr(metrics, "FOOTING_WINDOWS", {0.05: (0.001, 0.002), 0.1: (0.001, 0.002)})
+    assert metric.end_time(scene) == pytest.approx(0.2)  # the end of the ramp: v T / 2 = 2 mm
+    measured = metric.measure(scene, "cpu")
+    settlement, pressure = (np.array(v) for v in zip(*measured.run.samples))
+    assert settlement[-1] == pytest.approx(0.002, rel=0.05) and (np.diff(settlement) > 0).all()
+    inside = (settlement >= 0.001) & (settlement <= 0.002)
+    ratio = pressure[inside].mean() / ((2 + math.pi) * 10e3)
+    assert measured.extras["signed_error"] == pytest.approx(ratio - 1.0)
+    assert measured.errors["limit_load_error"] == pytest.approx(abs(ratio - 1.0)) and 0.1 < ratio < 0.5
 
 
 def test_pareto_front_on_a_hand_made_set():

@@ -64,16 +64,20 @@ def launch(kernel, dim: int, inputs: list, device) -> None:
     wp.launch(kernel, dim=dim, inputs=inputs, device=device)
 
 
-def launch_rows(kernel, rows: int, inputs: list, device) -> None:
+def launch_rows(kernel, rows: int, inputs: list, device, rows_per_item: int = 1,
+                min_rows_per_thread: int | None = None) -> None:  # fmt: skip
     """Launch row kernel ``kernel`` over rows [0, ``rows``) (``inputs`` without ``first``); on the CPU
-    in ``cpu_threads()`` concurrent chunks of at least MIN_ROWS_PER_THREAD rows."""
+    in ``cpu_threads()`` concurrent chunks of at least ``min_rows_per_thread`` rows (default
+    MIN_ROWS_PER_THREAD; cheap rows need more to pay for a thread). A kernel whose thread handles a
+    block of ``rows_per_item`` matrix rows (a blocked reduction) counts its items as that many rows
+    when the chunk count is chosen."""
     global _pool
     if rows == 0:
         return
     _record(kernel)
     chunks = 1
     if wp.get_device(device).is_cpu and (kernel, str(device)) in _loaded:
-        chunks = max(1, min(_threads, rows // MIN_ROWS_PER_THREAD))
+        chunks = max(1, min(_threads, rows * rows_per_item // (min_rows_per_thread or MIN_ROWS_PER_THREAD)))
     _loaded.add((kernel, str(device)))  # the first launch loads (or compiles) the module: one thread
     if chunks == 1:
         wp.launch(kernel, dim=rows, inputs=[0, *inputs], device=device)

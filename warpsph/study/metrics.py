@@ -8,12 +8,13 @@ one gets that reason as its error).
 
 from __future__ import annotations
 
+import math
 from collections.abc import Callable
 from dataclasses import dataclass
 
 import numpy as np
 
-from warpsph.errors import SceneError
+from warpsph.errors import SceneError, SimulationError
 from warpsph.scene import Scene
 from warpsph.verification import (SampledRun, column_stress_run, consolidation_constants, pressure_l2, run_sampled,
                                   step_wave_metrics)  # fmt: skip
@@ -64,10 +65,8 @@ class Metric:
 
 
 METRICS: dict[str, Metric] = {}
-PLANNED_METRICS = {
-    "prandtl_footing": "the limit-load error of the Prandtl strip footing needs the plasticity effect, which is "
-                       "not available in this version of warpsph",
-}  # fmt: skip
+PLANNED_METRICS: dict[str, str] = {}
+"""Metric name → why this version cannot measure it (a study naming one is refused with the reason)."""
 
 
 def register(metric: Metric) -> Metric:
@@ -168,3 +167,133 @@ register(Metric(
             **{f"pressure_l2_tv{tv:g}": f"RMS of p − p_Terzaghi over the particles at T_v = {tv:g}, over p₀"
                for tv in TERZAGHI_TV}},
     check=_check_terzaghi, end_time=_terzaghi_end, measure=_measure_terzaghi))  # fmt: skip
+
+
+# -------------------------------------------------------------------------------- Prandtl footing
+FOOTING_PRESSURE, FOOTING_SETTLEMENT = "footing_pressure", "footing_displacement"
+"""Probes of the footing scene: the base reaction over B/2 [Pa] and the piston settlement [m]."""
+FOOTING_WINDOWS = {0.05: (0.018, 0.024), 0.1: (0.012, 0.015)}
+"""Settlement windows [m] of the plateau measured by tests/test_footing_prandtl.py (the pressure has
+levelled off; the runs break down at about 30 mm at Δx = 0.05 m and 17 mm at 0.1 m), their upper
+ends where those runs stop (end_time 1.3 s and 0.85 s). Other spacings interpolate linearly in Δx."""
+PISTON_GAP = 0.75
+"""The piston region starts this many spacings above the ground (scenes/footing_prandtl.toml)."""
+PROBE_EVERY = 10
+"""Steps between samples of the footing probes (the scene's output.probe_every)."""
+
+
+def footing_window(dx: float) -> tuple[float, float]:
+    """Settlement window [m] of the plateau at spacing ``dx``: :data:`FOOTING_WINDOWS` interpolated
+    linearly in Δx, extrapolated to finer spacings; coarser ones keep the coarsest window."""
+    (d0, (lo0, hi0)), (d1, (lo1, hi1)) = sorted(FOOTING_WINDOWS.items())
+    f = min((dx - d0) / (d1 - d0), 1.0)
+    return lo0 + f * (lo1 - lo0), hi0 + f * (hi1 - hi0)
+
+
+def footing_plateau(settlement, pressure, window: tuple[float, float]) -> tuple[float, float, int]:
+    """(mean, standard deviation, count) of ``pressure`` over the samples whose ``settlement`` lies in
+    ``window`` (as tests/test_footing_prandtl.py); (nan, nan, 0) when none does."""
+    settlement, pressure = np.asarray(settlement, dtype=float), np.asarray(pressure, dtype=float)
+    inside = (settlement >= window[0]) & (settlement <= window[1])
+    if not inside.any():
+        return math.nan, math.nan, 0
+    return float(np.mean(pressure[inside])), float(np.std(pressure[inside])), int(inside.sum())
+
+
+def _footing(scene: Scene):
+    """(soil material, footing body, velocity load, pressure probe, settlement probe) of a footing
+    scene; otherwise :class:`SceneError`."""
+    need = ("prandtl_footing needs the footing scene's layout (scenes/footing_prandtl.toml): plasticity on, a box "
+            "body 'footing' on a von Mises soil body, a velocity load with a region and the probes "
+            f"{FOOTING_PRESSURE} (reaction) and {FOOTING_SETTLEMENT} (region_mean of displacement_y)")
+    if not scene.effects.plasticity or scene.effects.pore_water:
+        raise SceneError("study.metric", need + ": effects.plasticity = true, dry")
+    bodies = {b.name: b for b in scene.bodies}
+    footing = bodies.get("footing")
+    soils = [b for b in scene.bodies if b is not footing and scene.materials[b.material].yield_function == "von_mises"
+             and scene.materials[b.material].cohesion > 0]  # fmt: skip
+    loads = [ld for ld in scene.loads if ld.kind == "velocity" and ld.region is not None]
+    probes = {p.name: p for p in scene.probes}
+    pressure, settlement = probes.get(FOOTING_PRESSURE), probes.get(FOOTING_SETTLEMENT)
+    if (footing is None or footing.shape != "box" or len(soils) != 1 or len(loads) != 1 or pressure is None
+            or pressure.kind != "reaction" or settlement is None or settlement.kind != "region_mean"
+            or settlement.field != "displacement_y" or settlement.region is None):  # fmt: skip
+        raise SceneError("study.metric", need)
+    if loads[0].time_function.kind not in ("constant", "ramp") or loads[0].time_function.start != 0.0:
+        raise SceneError("study.metric", "prandtl_footing needs a constant or ramp (start 0) footing velocity")
+    return scene.materials[soils[0].material], footing, loads[0], pressure, settlement
+
+
+def footing_scene(scene: Scene) -> Scene:
+    """A copy of the footing scene with its geometry following Δx, as tests/test_footing_prandtl.py
+    sets it: the probe ``footing_pressure`` divides by B/2 = (last footing particle's x) + Δx/2 (the
+    edge lies half a spacing beyond the last particle; 0.525 m at Δx = 0.05 m, 0.4875 m at 0.075 m),
+    and the piston region (load and settlement probe) starts 3/4 Δx above the footing's base."""
+    import copy
+
+    from warpsph.lattice import fill_body
+
+    scene = copy.deepcopy(scene)
+    _, footing, load, pressure, settlement = _footing(scene)
+    dx = scene.simulation.dx
+    half_width = float(fill_body(footing, dx, scene.simulation.dim)[:, 0].max()) + 0.5 * dx
+    pressure.scale = 1.0 / half_width
+    for region in (load.region, settlement.region):
+        low = list(region.min)
+        low[1] = footing.min[1] + PISTON_GAP * dx
+        region.min = tuple(low)
+    return scene
+
+
+def _check_footing(scene: Scene) -> None:
+    _footing(scene)
+
+
+def _footing_end(scene: Scene) -> float:
+    """Time [s] at which the prescribed settlement reaches the top of the window."""
+    _, _, load, _, _ = _footing(scene)
+    speed = abs(load.velocity[1])
+    ramp = load.time_function.duration if load.time_function.kind == "ramp" else 0.0
+    top = footing_window(scene.simulation.dx)[1]
+    if top < 0.5 * speed * ramp:  # still on the ramp: settlement v t² / (2 T)
+        return math.sqrt(2.0 * ramp * top / speed)
+    return 0.5 * ramp + top / speed
+
+
+def _measure_footing(scene: Scene, device: str) -> Measurement:
+    from warpsph.probes import Probes
+    from warpsph.runner import host_fields
+
+    scene = footing_scene(scene)
+    soil, _, _, _, _ = _footing(scene)
+    limit = (2.0 + math.pi) * soil.cohesion
+    probes: list[Probes] = []
+
+    def sample(model, state):
+        if not probes:
+            probes.append(Probes(model))
+        values = probes[0].sample(host_fields(model, state))
+        return values[FOOTING_SETTLEMENT], values[FOOTING_PRESSURE]
+
+    steps = int(math.ceil(_footing_end(scene) / scene.time_step - 1e-9))
+    run = run_sampled(scene, [*range(PROBE_EVERY, steps, PROBE_EVERY), steps], sample, device)
+    settlement, pressure = zip(*run.samples) if run.samples else ((), ())
+    window = footing_window(scene.simulation.dx)
+    plateau, spread, count = footing_plateau(settlement, pressure, window)
+    if count == 0:
+        raise SimulationError(f"the footing settled {max(settlement, default=0.0) * 1e3:.3g} mm by the end, never "
+                              f"reaching the plateau window {window[0] * 1e3:.3g}-{window[1] * 1e3:.3g} mm")  # fmt: skip
+    ratio = plateau / limit
+    return Measurement(run, {"limit_load_error": abs(ratio - 1.0)},
+                       {"plateau_over_cu": plateau / soil.cohesion, "signed_error": ratio - 1.0,
+                        "plateau_spread": spread / limit, "window_lo_mm": window[0] * 1e3,
+                        "window_hi_mm": window[1] * 1e3})  # fmt: skip
+
+
+register(Metric(
+    name="prandtl_footing",
+    description="Prandtl's rigid strip footing on weightless von Mises soil: the plateau of footing_pressure "
+                "against (2 + π) c_u",
+    errors={"limit_load_error": "|plateau / ((2 + π) c_u) − 1|, plateau the mean of footing_pressure over the "
+                                "settlement window (metrics.footing_window)"},
+    check=_check_footing, end_time=_footing_end, measure=_measure_footing))  # fmt: skip
