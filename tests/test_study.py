@@ -115,7 +115,9 @@ def test_footing_metric_on_a_short_coarse_run(monkeypatch):
     metric.check(scene)
     adjusted = metrics.footing_scene(scene)
     assert adjusted.probes[0].scale == pytest.approx(1 / 0.55)  # footing particles at x = 0 ... 0.5
-    assert adjusted.loads[0].region.min[1] == pytest.approx(3.075) == adjusted.probes[1].region.min[1]
+    probes = {p.name: p for p in adjusted.probes}
+    assert adjusted.loads[0].region.min[1] == pytest.approx(3.075) == probes["footing_displacement"].region.min[1]
+    assert probes["footing_contact_pressure"].scale == pytest.approx(-1 / 0.55)
     assert metrics.footing_scene(load_scene(scene_path, {"simulation.dx": 0.075})).probes[0].scale == pytest.approx(
         1 / 0.4875)  # x = 0 ... 0.45  # fmt: skip
     assert scene.probes[0].scale == pytest.approx(1 / 0.525)  # the scene itself is left alone

@@ -98,13 +98,15 @@ class Probes:
 
     def sample(self, fields: dict[str, np.ndarray], rigid_contact: np.ndarray | None = None) -> dict[str, float]:
         """Probe values from host fields position (N,3), velocity (N,3), stress (N,3,3), density (N,)
-        and, for reactions of rigid regions, their contact forces ``rigid_contact`` (K,3) [N/m or N]."""
+        and, for reactions of rigid regions, their contact forces ``rigid_contact`` (K,3) [N/m or N]
+        (NaN without them)."""
         out = {}
         x0 = self.model.particle_x0
         for p, sel, normal, factor, k in zip(self.probes, self.selection, self.normal, self.area_factor,
                                              self.rigid_index):  # fmt: skip
             if k is not None:
-                out[p.name] = p.scale * float(rigid_contact[k, _COMPONENT[p.field]])
+                known = rigid_contact is not None
+                out[p.name] = p.scale * float(rigid_contact[k, _COMPONENT[p.field]]) if known else float("nan")
             elif p.kind == "reaction":
                 traction = total_stress(fields)[sel] @ normal
                 area = factor * self._mass[sel] / fields["density"][sel] / self.model.dx

@@ -238,6 +238,9 @@ def footing_scene(scene: Scene) -> Scene:
     dx = scene.simulation.dx
     half_width = float(fill_body(footing, dx, scene.simulation.dim)[:, 0].max()) + 0.5 * dx
     pressure.scale = 1.0 / half_width
+    for probe in scene.probes:  # the footing's own contact force, if the scene writes it
+        if probe.kind == "reaction" and probe.boundary == load.name:
+            probe.scale = -1.0 / half_width
     for region in (load.region, settlement.region):
         low = list(region.min)
         low[1] = footing.min[1] + PISTON_GAP * dx
