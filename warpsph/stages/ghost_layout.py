@@ -105,7 +105,8 @@ def _keep_inside_kernel(spec: Spec):
 
 
 class _SetLayout:
-    """The ghost arrays of one particle set in the model, by attribute name prefix."""
+    """One particle set's fields of the model, by name prefix: ``layout.count`` is
+    ``model.particle_count`` or ``model.virtual_count``, and so on."""
 
     def __init__(self, model, prefix: str):
         self.model, self.prefix = model, prefix
@@ -115,12 +116,12 @@ class _SetLayout:
 
     @property
     def owned(self) -> int:
-        return getattr(self.model, "particle_count" if self.prefix == "particle" else "virtual_count")
+        return self.count
 
     def assign(self, src: np.ndarray, chain: np.ndarray) -> None:
         """Make (src, chain) the live ghosts; their mass and material copy their sources'."""
         n, g = self.owned, len(src)
-        if g > self.ghost_source.shape[0] or n + g > getattr(self.model, f"{self.prefix}_capacity"):
+        if g > self.ghost_source.shape[0] or n + g > self.capacity:
             raise SimulationError(
                 f"large deformation: {g} ghosts of the {self.prefix} set needed, room for "
                 f"{self.ghost_source.shape[0]}; the body has spread along its boundary planes beyond what was "
@@ -128,8 +129,7 @@ class _SetLayout:
         if g:
             self.ghost_source[:g].assign(src)
             self.ghost_planes[:g].assign(chain)
-        for name in ("mass", "material"):
-            values = getattr(self.model, f"{self.prefix}_{name}")
+        for values in (self.mass, self.material):
             host = values.numpy()
             host[n : n + g] = host[src]
             values.assign(host)
@@ -164,10 +164,11 @@ class GhostLayout:
         """Number of re-plans so far [-]."""
 
     def keep_inside(self, q: wp.array, v: wp.array) -> None:
-        """Put owned real particles that crossed a fixed or slip plane back onto it."""
+        """Owned real particles that reach a wall (or cross any fixed or slip plane) join it."""
         m = self.model
         launch(_keep_inside_kernel(m.spec), m.particle_count,
-               [m.plane_count, self.plane_contact, m.plane_axis, self.plane_position, m.plane_sign, m.plane_kind, q, v], m.device)
+               [m.plane_count, self.plane_contact, m.plane_axis, self.plane_position, m.plane_sign, m.plane_kind, q,
+                v], m.device)  # fmt: skip
 
     def _positions(self, state) -> list:
         return [state.particle_q, state.virtual_q][: len(self.sets)]
