@@ -178,12 +178,6 @@ class RigidRegions:
         self.impulse.zero_()
         self._applied = False
 
-    def _launch_sum(self, v) -> None:
-        m = self.model
-        sum_momentum, *_ = _kernels(m.spec)
-        launch(sum_momentum, m.region_count, [m.region_particle, m.region_load, m.particle_mass, v, self.momentum],
-               m.device)  # fmt: skip
-
     def prescribe_virtual(self, v_half) -> None:
         """Half-step velocity of the regions' virtual points."""
         m = self.model
@@ -199,9 +193,10 @@ class RigidRegions:
         m = self.model
         if not self.count:
             return
-        _, region_velocity, assign, *_ = _kernels(m.spec)
+        sum_momentum, region_velocity, assign, *_ = _kernels(m.spec)
         self.momentum.zero_()
-        self._launch_sum(v)
+        launch(sum_momentum, m.region_count, [m.region_particle, m.region_load, m.particle_mass, v, self.momentum],
+               m.device)  # fmt: skip
         impulse_dt = 0.0 if self._applied else self.dt
         launch(region_velocity, self.count,
                [self.mode, self.velocity, self.force, self.factor, self.total_mass, self.momentum,
@@ -213,6 +208,8 @@ class RigidRegions:
     def contact_forces(self) -> np.ndarray:
         """(K,3) force each region exerts on the rest of the body over the last step [N/m or N]."""
         gravity = np.asarray(self.model.gravity, dtype=float)
-        dv = self.v_rigid.numpy().astype(float) - self.v_start.numpy().astype(float)
+        # only the constrained part is the region's (a smooth region's first point slides across)
+        dv = np.einsum("kij,kj->ki", self.constrained.numpy().astype(float),
+                       self.v_rigid.numpy().astype(float) - self.v_start.numpy().astype(float))
         impulse = self.impulse.numpy().astype(float)
         return self.mass[:, None] * gravity + (impulse - self.mass[:, None] * dv) / self.dt
