@@ -12,11 +12,12 @@ import numpy as np
 import pytest
 import warp as wp
 
+from warpsph.environment import default_device
 from warpsph.physics.elastic import elastic_functions
 from warpsph.sph.spec import Spec
 
 wp.config.quiet = True
-DEVICE = "cpu"
+DEVICE = default_device()  # WARPSPH_DEVICE, else the CPU
 OMEGA = 3.0  # angular rate [rad/s]
 TURN = 2.0 * np.pi / OMEGA  # period [s]
 SIGMA0 = 1e3 * np.array([[-100.0, 20.0, 10.0], [20.0, -60.0, -5.0], [10.0, -5.0, -80.0]])  # [Pa]

@@ -4,11 +4,12 @@ import numpy as np
 import pytest
 import warp as wp
 
+from warpsph.environment import default_device
 from warpsph.sph.neighbours import NeighbourList
 from warpsph.sph.spec import Spec
 
 wp.config.quiet = True
-DEVICE = "cpu"
+DEVICE = default_device()  # WARPSPH_DEVICE, else the CPU
 L = 1.0  # box edge [m]
 RADIUS = 0.13  # support radius 2h [m]
 

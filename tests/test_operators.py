@@ -13,13 +13,14 @@ import numpy as np
 import pytest
 import warp as wp
 
+from warpsph.environment import default_device
 from warpsph.sph.kernels import KERNELS
 from warpsph.sph.neighbours import NeighbourList
 from warpsph.sph.operators import operator_functions
 from warpsph.sph.spec import Spec
 
 wp.config.quiet = True
-DEVICE = "cpu"
+DEVICE = default_device()  # WARPSPH_DEVICE, else the CPU
 DX = 0.1  # lattice spacing [m]
 H_RATIO = 1.3  # h = 1.3 Δx, support 2h = 2.6 Δx
 RHO = 1800.0  # density [kg/m³]; masses are ρ Δx^dim so that V_b = m_b/ρ_b = Δx^dim

@@ -20,6 +20,7 @@ import numpy as np
 import pytest
 import warp as wp
 
+from warpsph.environment import default_device
 from warpsph.physics.plasticity import (
     RELAXATION_STEP,
     TRANSITION_ANGLE,
@@ -31,7 +32,7 @@ from warpsph.physics.plasticity import (
 from warpsph.sph.spec import Spec
 
 wp.config.quiet = True
-DEVICE = "cpu"
+DEVICE = default_device()  # WARPSPH_DEVICE, else the CPU
 RNG_SEED = 4
 COHESION = 20e3
 FRICTION = math.radians(30.0)

@@ -10,11 +10,12 @@ import numpy as np
 import pytest
 import warp as wp
 
+from warpsph.environment import default_device
 from warpsph.sph.kernels import KERNELS, kernel_derivative, kernel_value, smoothing_functions
 from warpsph.sph.spec import Spec
 
 wp.config.quiet = True
-DEVICE = "cpu"
+DEVICE = default_device()  # WARPSPH_DEVICE, else the CPU
 H = 0.37  # smoothing length [m]; deliberately not 1 so that h-scaling errors show
 
 

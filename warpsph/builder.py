@@ -15,6 +15,7 @@ import warp as wp
 
 from warpsph.fields import voigt_to_tensor
 from warpsph.lattice import fill_body, fill_cells
+from warpsph.environment import default_device
 from warpsph.model import PLANE_FIXED, PLANE_SLIP, PLANE_TRACTION, PLANE_VELOCITY, Model, State
 from warpsph.physics.plasticity import material_struct, viscoplastic_material
 from warpsph.pore_water import build_pore_water
@@ -136,8 +137,10 @@ def _check_drained_planes(scene: Scene, planes, on_plane: np.ndarray, points: np
                              "body, on the lattice of spacing dx")  # fmt: skip
 
 
-def build(scene: Scene, device: str = "cpu", precision: str | None = None) -> tuple[Model, State]:
-    """Turn a validated ``scene`` into a Model and its initial State on ``device``."""
+def build(scene: Scene, device: str | None = None, precision: str | None = None) -> tuple[Model, State]:
+    """Turn a validated ``scene`` into a Model and its initial State on ``device`` (default:
+    :func:`~warpsph.launching.default_device`)."""
+    device = device or default_device()
     spec = Spec.from_scene(scene, precision)
     sim = scene.simulation
     dx, dim = sim.dx, sim.dim

@@ -10,6 +10,7 @@ import argparse
 import sys
 from pathlib import Path
 
+from warpsph.environment import default_device
 from warpsph.errors import InputError, SceneError, SimulationError, one_line
 from warpsph.study import command as study_command
 
@@ -22,7 +23,7 @@ def _parser() -> argparse.ArgumentParser:
     sub = p.add_subparsers(dest="command", required=True)
     run = sub.add_parser("run", help="run a scene", formatter_class=argparse.ArgumentDefaultsHelpFormatter)
     run.add_argument("scene", type=Path, help="scene file (TOML, see docs/scenes.md)")
-    run.add_argument("--device", default="cpu", help="Warp device: cpu or cuda:0")
+    run.add_argument("--device", default=default_device(), help="Warp device: cpu or cuda:0 ($WARPSPH_DEVICE sets the default)")
     run.add_argument("--out", type=Path, default=None, help="run directory (default: runs/SCENE_NAME)")
     run.add_argument("--end-time", type=float, default=None, help="stop at this simulated time [s] "
                      "instead of the scene's simulation.end_time")  # fmt: skip

@@ -11,10 +11,11 @@ results are bit-identical for any thread count. On a GPU it is one launch.
 from __future__ import annotations
 
 import contextlib
-import os
 from concurrent.futures import ThreadPoolExecutor
 
 import warp as wp
+
+from warpsph.environment import default_cpu_threads
 
 _recorders: list[set] = []
 
@@ -22,14 +23,7 @@ MIN_ROWS_PER_THREAD = 1024
 """Rows below which another CPU thread is not worth its hand-off (≈ 20–50 µs) [-]."""
 
 
-def _default_threads() -> int:
-    """``WARPSPH_CPU_THREADS`` if set, else the CPUs this process may run on."""
-    env = os.environ.get("WARPSPH_CPU_THREADS")
-    return max(1, int(env)) if env else len(os.sched_getaffinity(0)) if hasattr(os, "sched_getaffinity") else (
-        os.cpu_count() or 1)  # fmt: skip
-
-
-_threads = _default_threads()
+_threads = default_cpu_threads()
 _pool: ThreadPoolExecutor | None = None
 _loaded: set = set()
 """(kernel, device) pairs launched before: their modules are loaded, so threads may share them."""

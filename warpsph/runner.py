@@ -98,7 +98,7 @@ def warm_up(solver: Solver, guard: Guard, state: State, scratch: State, t: float
 class Run:
     """One simulation run of ``scene`` into ``out_dir`` (see module docstring)."""
 
-    def __init__(self, scene: Scene, out_dir, *, device: str = "cpu", precision: str | None = None,
+    def __init__(self, scene: Scene, out_dir, *, device: str | None = None, precision: str | None = None,
                  end_time: float | None = None, resume: bool = False, profile: bool = False):  # fmt: skip
         self.scene = scene
         self.out = Path(out_dir)

@@ -101,7 +101,7 @@ class SampledRun:
         return self.model.particle_count * self.steps / self.step_seconds if self.step_seconds > 0 else 0.0
 
 
-def run_sampled(scene, sample_steps: Iterable[int], extract: Callable, device: str = "cpu") -> SampledRun:
+def run_sampled(scene, sample_steps: Iterable[int], extract: Callable, device: str | None = None) -> SampledRun:
     """Build ``scene`` on ``device``, compile by one throw-away step (timed apart), step to the
     largest of ``sample_steps`` and keep ``extract(model, state)`` after each of them. Raises
     :class:`~warpsph.errors.SimulationError` when the run guard finds a non-finite field or a speed
@@ -152,7 +152,7 @@ def column_stress_profile(model, state) -> tuple[np.ndarray, np.ndarray]:
     return column_profile(q, s, model.dx)
 
 
-def column_stress_run(scene, t_end: float, n_frames: int = 12, device: str = "cpu") -> SampledRun:
+def column_stress_run(scene, t_end: float, n_frames: int = 12, device: str | None = None) -> SampledRun:
     """Run ``scene`` to ``t_end`` [s] in memory, sampling :func:`column_stress_profile` at about
     ``n_frames`` evenly spaced steps, for :func:`step_wave_metrics`."""
     n_end = int(np.ceil(t_end / scene.time_step - 1e-9))
@@ -160,7 +160,7 @@ def column_stress_run(scene, t_end: float, n_frames: int = 12, device: str = "cp
     return run_sampled(scene, range(every, n_end + 1, every), column_stress_profile, device=device)
 
 
-def sample_column_stress(scene, t_end: float, n_frames: int = 12, device: str = "cpu"):
+def sample_column_stress(scene, t_end: float, n_frames: int = 12, device: str | None = None):
     """(times, [(y, σ_yy)] profiles) of :func:`column_stress_run`."""
     run = column_stress_run(scene, t_end, n_frames, device)
     return run.times, run.samples

@@ -26,7 +26,7 @@ def scheme_params(xfail: dict | None = None) -> list:
     return [pytest.param(s, marks=expected_failure(xfail[s])) if s in xfail else s for s in SCHEMES]
 
 
-def march(scene, steps: int, observe=None, every: int = 1, setup=None, device: str = "cpu"):
+def march(scene, steps: int, observe=None, every: int = 1, setup=None, device: str | None = None):
     """Build ``scene`` and take ``steps`` steps of its Δt; return (model, state, solver).
 
     ``setup(model, state)`` may edit the initial state; ``observe(k, model, state)`` is called after

@@ -7,6 +7,7 @@ import importlib.util
 import sys
 from pathlib import Path
 
+from warpsph.environment import default_device
 from warpsph.errors import InputError, SceneError
 
 EXTRA_HINT = "warpsph study needs dask.distributed and matplotlib: pip install 'warpsph[study]'"
@@ -23,7 +24,8 @@ def add_parser(sub) -> None:
                    "None: a local cluster")  # fmt: skip
     p.add_argument("--workers", type=int, default=None, help="worker processes of the local cluster; None: one per "
                    "core; 0: the runs go in this process, without Dask")  # fmt: skip
-    p.add_argument("--device", default="cpu", help="Warp device of the runs: cpu or cuda:0")
+    p.add_argument("--device", default=default_device(),
+                   help="Warp device of the runs: cpu or cuda:0 ($WARPSPH_DEVICE sets the default)")
     p.add_argument("--dry-run", action="store_true", help="list the runs and their estimated CPU time; run nothing")
     p.add_argument("--no-progress", action="store_true", help="no progress bar")
 

@@ -19,16 +19,18 @@ from warpsph.errors import InputError, SimulationError
 from warpsph.study.spec import Case, Study
 
 
-def run_case(scene_text: str, scene_name: str, overrides: dict, metric: str, device: str = "cpu") -> dict:
+def run_case(scene_text: str, scene_name: str, overrides: dict, metric: str, device: str | None = None) -> dict:
     """Build and run the scene with ``overrides``, measure ``metric``; return the run's record:
     status ("finished", "unstable" or "failed": the scene could not be built), errors, extras and
     timings [s] (``wall_seconds`` counts the steps alone, ``compile_seconds`` the warm-up step)."""
     from warpsph.bench import machine_record, timing_fields
     from warpsph.cli import _init_warp
     from warpsph.scene_toml import parse_scene
+    from warpsph.environment import default_device
     from warpsph.study.metrics import METRICS
 
     _init_warp()
+    device = device or default_device()
     record = {"overrides": overrides, "metric": metric, "status": "finished", "message": "", "errors": {},
               "extras": {}, "machine": machine_record(device)}  # fmt: skip
     start = time.perf_counter()
@@ -114,12 +116,15 @@ def dask_client(scheduler: str | None, workers: int | None):
 
 
 def run_studies(studies: list[Study], out_dir, *, scheduler: str | None = None, workers: int | None = None,
-                device: str = "cpu", progress: bool = True) -> list[StudyOutcome]:
+                device: str | None = None, progress: bool = True) -> list[StudyOutcome]:
     """Run every case of ``studies`` that has no record yet under ``out_dir/<study name>/runs``,
     longest first, through Dask (``workers=0``: in this process, without Dask); return the outcomes
     (reports are :func:`warpsph.study.report.write_reports`'s)."""
     from tqdm import tqdm
 
+    from warpsph.environment import default_device
+
+    device = device or default_device()
     start = time.perf_counter()
     outcomes, pending = [], []
     for study in studies:

@@ -92,7 +92,7 @@ class Study:
         """The base scene with ``overrides`` (:func:`warpsph.scene_toml.parse_scene`)."""
         return parse_scene(self.scene_text, name=self.scene_name, overrides=overrides)
 
-    def cases(self, device: str = "cpu") -> list[Case]:
+    def cases(self, device: str | None = None) -> list[Case]:
         """Every run: the cartesian product of each sweep's values over ``fixed``, in file order,
         runs with the same scene once. Raises :class:`SceneError` naming the study key of the first
         override the scene refuses, or ``study.metric`` when the scene does not fit the metric."""
