@@ -7,6 +7,7 @@ import h5py
 import pytest
 
 from warpsph.cli import main
+from warpsph.environment import default_device
 from warpsph.io import load_checkpoint, load_results
 
 
@@ -53,7 +54,7 @@ def test_run_writes_results(scenes_dir, tmp_path):
 
 def test_help_shows_defaults():
     result = warpsph("run", "--help")
-    assert result.returncode == 0 and "--end-time" in result.stdout and "default: cpu" in result.stdout
+    assert result.returncode == 0 and "--end-time" in result.stdout and f"default: {default_device()}" in result.stdout
 
 
 def test_blow_up_stops_with_message_and_keeps_output(scenes_dir, tmp_path):

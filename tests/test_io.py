@@ -228,7 +228,8 @@ def test_kill_safety(tmp_path):
     from pxr import Usd
 
     proc = subprocess.Popen([sys.executable, "-c", KILLED_WRITER, str(tmp_path)], stdout=subprocess.PIPE,
-                            text=True, env={**os.environ, "PYTHONPATH": str(Path(__file__).parents[1])})
+                            text=True, env={**os.environ, "PYTHONPATH": os.pathsep.join(
+                                filter(None, [str(Path(__file__).parents[1]), os.environ.get("PYTHONPATH")]))})
     try:
         for _ in range(2):
             assert proc.stdout.readline(), "writer died before writing two frames"

@@ -8,7 +8,7 @@ from warpsph import launching
 from warpsph.bench import block_scene
 from warpsph.builder import build
 from warpsph.solver import Solver
-from warpsph.stages import pressure
+from warpsph.stages import linear_solve
 
 
 @wp.kernel(enable_backward=False)
@@ -57,9 +57,9 @@ def test_threaded_steps_are_bit_identical(threads, scheme, effects):
 def test_blocked_pressure_solves_match_the_row_kernels(threads, method, monkeypatch):
     """The CPU's blocked, row-threaded CG and Jacobi (partial sums per 256-row block) give the same
     bits on one and two threads, and take the same iterations as the one-thread-per-row kernels
-    with atomic dot products (the GPU path) to the same pressures up to rounding, over five
+    and block sums (the GPU path, checking every iteration on the CPU) to the same pressures up to rounding, over five
     saturated steps of a 2 304-particle block (nine blocks, two chunks)."""
-    monkeypatch.setattr(pressure, "SOLVE_ROWS_PER_THREAD", 1024)  # split the solve of this small block too
+    monkeypatch.setattr(linear_solve, "SOLVE_ROWS_PER_THREAD", 1024)  # split the solve of this small block too
     results = []
     for blocked, n in ((True, 1), (True, 2), (False, 1)):
         threads(n)
@@ -68,7 +68,7 @@ def test_blocked_pressure_solves_match_the_row_kernels(threads, method, monkeypa
         model, a = build(scene, "cpu", "float64")
         b = model.state()
         solver = Solver(model)
-        solver.projection.blocked = blocked
+        solver.projection.linear.blocked = blocked
         for k in range(5):
             solver.step(a, b, k * scene.time_step, scene.time_step)
             a, b = b, a

@@ -1,9 +1,8 @@
 """CPU threading of the pressure solve, A/B in one process: ``python -m warpsph.bench_solve``.
 
-The saturated step of ``warpsph.bench``'s block with the solve on the one-thread-per-row kernels
-with atomic dot products (``projection.blocked = False``: the CPU code before the blocked solve,
-and the GPU path) or on the blocked, row-threaded kernels (the CPU default), on 1 and 2 CPU
-threads. Every trial runs ``--steps`` steps from the same state; the configurations cycle
+The saturated step of ``warpsph.bench``'s block with the solve on the device-resident
+one-thread-per-row kernels (``projection.linear.blocked = False``: the GPU path) or on the blocked,
+row-threaded kernels (the CPU default), on 1 and 2 CPU threads. Every trial runs ``--steps`` steps from the same state; the configurations cycle
 ``--cycles`` times (after one warm-up cycle), so that a change of load on a shared machine hits
 all of them. ``--solve-only`` times one assembled solve instead of whole steps (docs/performance.md,
 "Pressure solve on CPU threads").
@@ -64,14 +63,12 @@ def main(argv=None) -> None:
         for cycle in range(args.cycles + 1):
             for blocked, threads in configs:
                 launching.set_cpu_threads(threads)
-                projection.blocked = blocked
+                projection.linear.blocked = blocked
                 projection.iterations.clear()
                 if args.solve_only:
                     wp.copy(x, x0)
-                    solve = {(False, "cg"): projection._cg, (True, "cg"): projection._cg_blocked,
-                             (False, "jacobi"): projection._jacobi, (True, "jacobi"): projection._jacobi_blocked}
                     start = time.perf_counter()
-                    its, _ = solve[(blocked, args.solver)](x)
+                    its, _ = projection.linear.solve(projection._matrix(), projection.rhs, x)
                     row = ((time.perf_counter() - start) * 1e3, float("nan"), its)
                 else:
                     a.assign(snapshot)
@@ -93,7 +90,7 @@ def main(argv=None) -> None:
           f"ms per {what} and of the projection: min / median")  # fmt: skip
     for (blocked, threads), rows in results.items():
         step, proj = [r[0] for r in rows], [r[1] for r in rows]
-        name = "blocked, row-threaded" if blocked else "row kernels, atomics"
+        name = "blocked, row-threaded" if blocked else "device-resident rows"
         print(f"  {name:22s} threads {threads}: {min(step):8.2f} / {statistics.median(step):8.2f}   "
               f"projection {min(proj):7.2f} / {statistics.median(proj):7.2f}   iterations {rows[0][2]:.1f}")
 

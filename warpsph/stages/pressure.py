@@ -32,19 +32,13 @@ from warpsph.sph.kernels import kernel_derivative
 from warpsph.sph.operators import operator_functions
 from warpsph.sph.spec import Spec
 from warpsph.stages.boundaries import plane_functions
+from warpsph.stages.linear_solve import LinearSolver
 
 DRAINED_SURFACE_EIGENVALUE = 0.6
 """Real particles whose correction eigenvalue is below this are on a free surface (≈0.5 on a flat
 face, ≈0.66 one row in): with a drained free surface their pore pressure is zero."""
 ETA = 0.1
 """Morris regularisation η/h."""
-SOLVE_BLOCK = 256
-"""Rows per item of the blocked CG and Jacobi kernels on the CPU: the unit of their partial sums,
-fixed whatever the thread count (so the sums, and the solves, are bit-identical for any count)."""
-SOLVE_ROWS_PER_THREAD = 4096
-"""Fewest matrix rows worth another CPU thread in the solve's passes: a 16 384-row matrix pass took
-465 µs on one thread, 236 µs for half of it and 308 µs for both halves on two threads, so a thread
-hand-off costs ≈ 75 µs ≈ 2 600 rows of work (docs/performance.md)."""
 
 
 def laplacian_scale(kind: str, dim: int, ratio: float) -> float:
@@ -304,161 +298,6 @@ def _kernels(spec: Spec):
         diag[a] = d
         rhs[a] = b
 
-    @wp.func
-    def apply_row(a: int, offsets: wp.array(dtype=wp.int32), weight: wp.array(dtype=f64),
-                  column: wp.array(dtype=wp.int32), diag: wp.array(dtype=f64), x: wp.array(dtype=f64)):  # fmt: skip
-        y = diag[a] * x[a]
-        for k in range(offsets[a], offsets[a + 1]):
-            y -= weight[k] * x[column[k]]
-        return y
-
-    @wp.kernel(enable_backward=False, module="unique")
-    def matvec_dot(
-        offsets: wp.array(dtype=wp.int32), weight: wp.array(dtype=f64), column: wp.array(dtype=wp.int32),
-        diag: wp.array(dtype=f64), x: wp.array(dtype=f64), y: wp.array(dtype=f64),
-        dot: wp.array(dtype=f64),
-    ):  # fmt: skip
-        """y = A x and dot += x·y."""
-        a = wp.tid()
-        ya = apply_row(a, offsets, weight, column, diag, x)
-        y[a] = ya
-        wp.atomic_add(dot, 0, x[a] * ya)
-
-    @wp.kernel(enable_backward=False, module="unique")
-    def residual(
-        offsets: wp.array(dtype=wp.int32), weight: wp.array(dtype=f64), column: wp.array(dtype=wp.int32),
-        diag: wp.array(dtype=f64), x: wp.array(dtype=f64), rhs: wp.array(dtype=f64),
-        r: wp.array(dtype=f64), norms: wp.array(dtype=f64),
-    ):  # fmt: skip
-        """r = b − A x; norms += (r·r, b·b)."""
-        a = wp.tid()
-        ra = rhs[a] - apply_row(a, offsets, weight, column, diag, x)
-        r[a] = ra
-        wp.atomic_add(norms, 0, ra * ra)
-        wp.atomic_add(norms, 1, rhs[a] * rhs[a])
-
-    @wp.kernel(enable_backward=False, module="unique")
-    def precondition(r: wp.array(dtype=f64), diag: wp.array(dtype=f64), z: wp.array(dtype=f64),
-                     dots: wp.array(dtype=f64)):  # fmt: skip
-        """z = r / diag; dots += (r·z, r·r)."""
-        a = wp.tid()
-        za = r[a] / diag[a]
-        z[a] = za
-        wp.atomic_add(dots, 0, r[a] * za)
-        wp.atomic_add(dots, 1, r[a] * r[a])
-
-    @wp.kernel(enable_backward=False, module="unique")
-    def cg_step(alpha: f64, d: wp.array(dtype=f64), Ad: wp.array(dtype=f64), x: wp.array(dtype=f64),
-                r: wp.array(dtype=f64)):  # fmt: skip
-        a = wp.tid()
-        x[a] = x[a] + alpha * d[a]
-        r[a] = r[a] - alpha * Ad[a]
-
-    @wp.kernel(enable_backward=False, module="unique")
-    def cg_direction(beta: f64, z: wp.array(dtype=f64), d: wp.array(dtype=f64)):
-        a = wp.tid()
-        d[a] = z[a] + beta * d[a]
-
-    @wp.kernel(enable_backward=False, module="unique")
-    def jacobi_sweep(
-        omega: f64, offsets: wp.array(dtype=wp.int32), weight: wp.array(dtype=f64), column: wp.array(dtype=wp.int32),
-        diag: wp.array(dtype=f64), x: wp.array(dtype=f64), rhs: wp.array(dtype=f64),
-        x_new: wp.array(dtype=f64), norms: wp.array(dtype=f64),
-    ):  # fmt: skip
-        """x_new = x + ω (b − A x)/diag; norms += (r·r, b·b) of x."""
-        a = wp.tid()
-        ra = rhs[a] - apply_row(a, offsets, weight, column, diag, x)
-        x_new[a] = x[a] + omega * ra / diag[a]
-        wp.atomic_add(norms, 0, ra * ra)
-        wp.atomic_add(norms, 1, rhs[a] * rhs[a])
-
-    # -- blocked CG and Jacobi (CPU): item i of a launch_rows launch owns rows [i B, min(n, (i+1) B)),
-    # writes only their vectors and its own partial sums partial[3 i + 0..2]; the host adds the
-    # partials in block order, so every sum is the same for any thread count.
-    @wp.kernel(enable_backward=False, module="unique")
-    def residual_blocks(
-        first: int, block: int, n: int, offsets: wp.array(dtype=wp.int32), weight: wp.array(dtype=f64),
-        column: wp.array(dtype=wp.int32), diag: wp.array(dtype=f64),
-        x: wp.array(dtype=f64), rhs: wp.array(dtype=f64), r: wp.array(dtype=f64), z: wp.array(dtype=f64),
-        partial: wp.array(dtype=f64),
-    ):  # fmt: skip
-        """r = b − A x, z = r/diag; partial = (r·z, r·r, b·b) of the block."""
-        i = first + wp.tid()
-        rz = zero
-        rr = zero
-        bb = zero
-        for a in range(i * block, wp.min(n, (i + 1) * block)):
-            ra = rhs[a] - apply_row(a, offsets, weight, column, diag, x)
-            za = ra / diag[a]
-            r[a] = ra
-            z[a] = za
-            rz += ra * za
-            rr += ra * ra
-            bb += rhs[a] * rhs[a]
-        partial[3 * i] = rz
-        partial[3 * i + 1] = rr
-        partial[3 * i + 2] = bb
-
-    @wp.kernel(enable_backward=False, module="unique")
-    def cg_direction_rows(first: int, beta: f64, z: wp.array(dtype=f64), d: wp.array(dtype=f64)):
-        """d = z + β d."""
-        a = first + wp.tid()
-        d[a] = z[a] + beta * d[a]
-
-    @wp.kernel(enable_backward=False, module="unique")
-    def matvec_blocks(
-        first: int, block: int, n: int, offsets: wp.array(dtype=wp.int32), weight: wp.array(dtype=f64),
-        column: wp.array(dtype=wp.int32), diag: wp.array(dtype=f64),
-        d: wp.array(dtype=f64), Ad: wp.array(dtype=f64), partial: wp.array(dtype=f64),
-    ):  # fmt: skip
-        """Ad = A d; partial[0] = d·Ad of the block."""
-        i = first + wp.tid()
-        dad = zero
-        for a in range(i * block, wp.min(n, (i + 1) * block)):
-            y = apply_row(a, offsets, weight, column, diag, d)
-            Ad[a] = y
-            dad += d[a] * y
-        partial[3 * i] = dad
-
-    @wp.kernel(enable_backward=False, module="unique")
-    def cg_update_blocks(
-        first: int, block: int, n: int, alpha: f64, d: wp.array(dtype=f64), Ad: wp.array(dtype=f64),
-        diag: wp.array(dtype=f64), x: wp.array(dtype=f64), r: wp.array(dtype=f64), z: wp.array(dtype=f64),
-        partial: wp.array(dtype=f64),
-    ):  # fmt: skip
-        """x += α d, r −= α Ad, z = r/diag; partial = (r·z, r·r) of the block."""
-        i = first + wp.tid()
-        rz = zero
-        rr = zero
-        for a in range(i * block, wp.min(n, (i + 1) * block)):
-            x[a] = x[a] + alpha * d[a]
-            ra = r[a] - alpha * Ad[a]
-            za = ra / diag[a]
-            r[a] = ra
-            z[a] = za
-            rz += ra * za
-            rr += ra * ra
-        partial[3 * i] = rz
-        partial[3 * i + 1] = rr
-
-    @wp.kernel(enable_backward=False, module="unique")
-    def jacobi_blocks(
-        first: int, block: int, n: int, omega: f64, offsets: wp.array(dtype=wp.int32), weight: wp.array(dtype=f64),
-        column: wp.array(dtype=wp.int32), diag: wp.array(dtype=f64),
-        x: wp.array(dtype=f64), rhs: wp.array(dtype=f64), x_new: wp.array(dtype=f64), partial: wp.array(dtype=f64),
-    ):  # fmt: skip
-        """x_new = x + ω (b − A x)/diag; partial = (r·r, b·b) of x in the block."""
-        i = first + wp.tid()
-        rr = zero
-        bb = zero
-        for a in range(i * block, wp.min(n, (i + 1) * block)):
-            ra = rhs[a] - apply_row(a, offsets, weight, column, diag, x)
-            x_new[a] = x[a] + omega * ra / diag[a]
-            rr += ra * ra
-            bb += rhs[a] * rhs[a]
-        partial[3 * i] = rr
-        partial[3 * i + 1] = bb
-
     @wp.kernel(enable_backward=False, module="unique")
     def difference(first: int, a_: wp.array(dtype=f64), b_: wp.array(dtype=f64), out: wp.array(dtype=f64)):
         i = first + wp.tid()
@@ -467,11 +306,8 @@ def _kernels(spec: Spec):
     return dict(
         pressure_ghosts=pressure_ghosts, fit_vector_at_virtual=fit_vector_at_virtual,
         fit_scalar_at_virtual=fit_scalar_at_virtual, divergence_at_real=divergence_at_real,
-        gradient_at_real=gradient_at_real, correct_velocity=correct_velocity, darcy=darcy, mark_dirichlet=mark_dirichlet, assemble=assemble, matvec_dot=matvec_dot,
-        residual=residual, precondition=precondition, cg_step=cg_step, cg_direction=cg_direction,
-        jacobi_sweep=jacobi_sweep, difference=difference, residual_blocks=residual_blocks,
-        cg_update_blocks=cg_update_blocks,
-        jacobi_blocks=jacobi_blocks, cg_direction_rows=cg_direction_rows, matvec_blocks=matvec_blocks,
+        gradient_at_real=gradient_at_real, correct_velocity=correct_velocity, darcy=darcy, mark_dirichlet=mark_dirichlet, assemble=assemble,
+        difference=difference,
     )  # fmt: skip
 
 
@@ -497,14 +333,7 @@ class PressureProjection:
         self.value = wp.zeros(n, dtype=f64, device=dev)
         self.diag = wp.zeros(n, dtype=f64, device=dev)
         self.rhs = wp.zeros(n, dtype=f64, device=dev)
-        self.work = [wp.zeros(n, dtype=f64, device=dev) for _ in range(4)]
-        self.norms = wp.zeros(2, dtype=f64, device=dev)
-        # on the CPU the iterations run blocked, row-threaded and without atomics (launch_rows);
-        # elsewhere one thread per row with atomic dot products
-        self.blocked = wp.get_device(dev).is_cpu
-        self.blocks = (n + SOLVE_BLOCK - 1) // SOLVE_BLOCK
-        self.partial = wp.zeros(3 * max(self.blocks, 1), dtype=f64, device=dev)
-        self.partial_host = self.partial.numpy().reshape(-1, 3) if self.blocked else None  # shares the memory
+        self.linear = LinearSolver(n, dev, settings)
         self.weight = self.column = None
         on, val = self._drained_plane_particles()
         self.on_drained = wp.array(on, dtype=wp.int32, device=dev)
@@ -614,10 +443,7 @@ class PressureProjection:
         # solve into a copy of pⁿ (owned part), Dirichlet rows already at their values
         x = so.particle_pore_pressure
         wp.copy(x, self.p_old, count=n)
-        if self.blocked:
-            iterations, rel = self._cg_blocked(x) if self.settings.solver == "cg" else self._jacobi_blocked(x)
-        else:
-            iterations, rel = self._cg(x) if self.settings.solver == "cg" else self._jacobi(x)
+        iterations, rel = self.linear.solve(self._matrix(), self.rhs, x)
         self.iterations.append(iterations)
         self.residuals.append(rel)
         if not rel <= self.settings.tolerance:
@@ -664,107 +490,3 @@ class PressureProjection:
 
     def _matrix(self):
         return [self.solver.real_to_real.offsets, self.weight, self.column, self.diag]
-
-    def _cg(self, x):
-        n, dev, s = self.model.particle_count, self.model.device, self.settings
-        r, z, d, Ad = self.work
-        self.norms.zero_()
-        launch(self.k["residual"], n, [*self._matrix(), x, self.rhs, r, self.norms], dev)
-        rr, bb = self.norms.numpy()
-        target = s.tolerance**2 * max(bb, 1e-300)
-        if rr <= target:
-            return 0, math.sqrt(rr / max(bb, 1e-300))
-        self.norms.zero_()
-        launch(self.k["precondition"], n, [r, self.diag, z, self.norms], dev)
-        rz = float(self.norms.numpy()[0])
-        wp.copy(d, z)
-        for it in range(1, s.max_iterations + 1):
-            self.norms.zero_()
-            launch(self.k["matvec_dot"], n, [*self._matrix(), d, Ad, self.norms], dev)
-            dAd = float(self.norms.numpy()[0])
-            if dAd <= 0.0:
-                break
-            launch(self.k["cg_step"], n, [wp.float64(rz / dAd), d, Ad, x, r], dev)
-            self.norms.zero_()
-            launch(self.k["precondition"], n, [r, self.diag, z, self.norms], dev)
-            rz_new, rr = (float(v) for v in self.norms.numpy())
-            if rr <= target:
-                return it, math.sqrt(rr / bb)
-            launch(self.k["cg_direction"], n, [wp.float64(rz_new / rz), z, d], dev)
-            rz = rz_new
-        return s.max_iterations, math.sqrt(rr / max(bb, 1e-300))
-
-    def _blocks(self, kernel, inputs: list, threaded: bool = True) -> None:
-        """Launch a blocked kernel over the rows, SOLVE_BLOCK per item: on the CPU threads when
-        ``threaded`` (the matrix passes), else on this thread (vector updates of a few tens of µs,
-        which a second thread's hand-off would slow down)."""
-        n, dev = self.model.particle_count, self.model.device
-        if threaded:
-            launch_rows(self.k[kernel], self.blocks, [SOLVE_BLOCK, n, *inputs], dev, rows_per_item=SOLVE_BLOCK,
-                        min_rows_per_thread=SOLVE_ROWS_PER_THREAD)  # fmt: skip
-        else:
-            launch(self.k[kernel], self.blocks, [0, SOLVE_BLOCK, n, *inputs], dev)
-
-    def _sum(self, column: int) -> float:
-        """Sum of the blocks' partial sums ``column``, in block order (the same for any thread count)."""
-        return float(self.partial_host[: self.blocks, column].sum())
-
-    def _cg_blocked(self, x):
-        """Jacobi-preconditioned CG as :meth:`_cg`, three launches and two host reads per iteration:
-        d = z + βd; Ad = A d with d·Ad (row-threaded); x, r, z with r·z and r·r."""
-        n, dev, s = self.model.particle_count, self.model.device, self.settings
-        r, z, d, Ad = self.work
-        self._blocks("residual_blocks", [*self._matrix(), x, self.rhs, r, z, self.partial])
-        rz, rr, bb = self._sum(0), self._sum(1), self._sum(2)
-        target = s.tolerance**2 * max(bb, 1e-300)
-        if rr <= target:
-            return 0, math.sqrt(rr / max(bb, 1e-300))
-        d.zero_()
-        beta = 0.0
-        for it in range(1, s.max_iterations + 1):
-            launch(self.k["cg_direction_rows"], n, [0, wp.float64(beta), z, d], dev)
-            self._blocks("matvec_blocks", [*self._matrix(), d, Ad, self.partial])
-            dAd = self._sum(0)
-            if dAd <= 0.0:
-                break
-            self._blocks("cg_update_blocks", [wp.float64(rz / dAd), d, Ad, self.diag, x, r, z, self.partial],
-                         threaded=False)  # fmt: skip
-            rz_new, rr = self._sum(0), self._sum(1)
-            if rr <= target:
-                return it, math.sqrt(rr / bb)
-            beta, rz = rz_new / rz, rz_new
-        return s.max_iterations, math.sqrt(rr / max(bb, 1e-300))
-
-    def _jacobi_blocked(self, x):
-        """Weighted Jacobi as :meth:`_jacobi`, one row-threaded pass and one host read per sweep."""
-        n, s = self.model.particle_count, self.settings
-        current, nxt = x, self.work[0]
-        rel = math.inf
-        for it in range(s.max_iterations + 1):
-            self._blocks("jacobi_blocks", [wp.float64(s.jacobi_weight), *self._matrix(), current, self.rhs, nxt,
-                                           self.partial])  # fmt: skip
-            rel = math.sqrt(self._sum(0) / max(self._sum(1), 1e-300))
-            if rel <= s.tolerance:
-                break  # ``current`` met the tolerance
-            current, nxt = nxt, current
-        if current is not x:
-            wp.copy(x, current, count=n)
-        return it, rel
-
-    def _jacobi(self, x):
-        n, dev, s = self.model.particle_count, self.model.device, self.settings
-        other = self.work[0]
-        current, nxt = x, other
-        rel = math.inf
-        for it in range(s.max_iterations + 1):
-            self.norms.zero_()
-            launch(self.k["jacobi_sweep"], n,
-                   [wp.float64(s.jacobi_weight), *self._matrix(), current, self.rhs, nxt, self.norms], dev)
-            rr, bb = self.norms.numpy()
-            rel = math.sqrt(rr / max(bb, 1e-300))
-            if rel <= s.tolerance:
-                break  # ``current`` met the tolerance
-            current, nxt = nxt, current
-        if current is not x:
-            wp.copy(x, current, count=n)
-        return it, rel
