@@ -311,7 +311,7 @@ class LinearSolver:
             self._blocks(update_blocks, [f64(rz / dAd), d, Ad, matrix[3], x, r, z, self.partial], threaded=False)
             rz_new, rr = self._sum(0), self._sum(1)
             if rr <= target:
-                return it, math.sqrt(rr / bb)
+                return it, math.sqrt(rr / max(bb, 1e-300))
             beta, rz = rz_new / rz, rz_new
         return s.max_iterations, math.sqrt(rr / max(bb, 1e-300))
 
@@ -362,7 +362,7 @@ class LinearSolver:
             if self._due(it):
                 rr = float(self._row(it)[RR])
                 if rr <= target:
-                    return it, math.sqrt(rr / bb)
+                    return it, math.sqrt(rr / max(bb, 1e-300))
                 if not (table.numpy().reshape(-1, COLUMNS)[1 : it + 1, DAD] > 0.0).all():
                     break  # not positive definite (or converged to zero direction): as the blocked CG
         return s.max_iterations, math.sqrt(rr / max(bb, 1e-300))

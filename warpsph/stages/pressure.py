@@ -26,7 +26,7 @@ import warp as wp
 
 from warpsph.errors import SimulationError
 from warpsph.launching import launch, launch_rows
-from warpsph.model import Model
+from warpsph.model import PLANE_TRACTION, Model
 from warpsph.scene import EXTENT_TOLERANCE
 from warpsph.sph.kernels import kernel_derivative
 from warpsph.sph.operators import operator_functions
@@ -81,12 +81,18 @@ def _kernels(spec: Spec):
     def ghost_affine(g: int, source: wp.array(dtype=wp.int32), chain: wp.array(dtype=wp.vec3i),
                      q: wp.array(dtype=vec3), where: vec3, plane_axis: wp.array(dtype=wp.int32),
                      plane_position: wp.array(dtype=real), plane_sign: wp.array(dtype=real),
-                     drainage: wp.array(dtype=wp.int32), drained_lo: wp.array(dtype=vec3),
-                     drained_hi: wp.array(dtype=vec3), drained_pressure: wp.array(dtype=f64),
-                     head: wp.array(dtype=f64), inflow: wp.array(dtype=f64), water_density: f64, k: f64,
-                     gravity: vec3, water_table: f64, homogeneous: int):  # fmt: skip
+                     plane_kind: wp.array(dtype=wp.int32), drainage: wp.array(dtype=wp.int32),
+                     drained_lo: wp.array(dtype=vec3), drained_hi: wp.array(dtype=vec3),
+                     drained_pressure: wp.array(dtype=f64), head: wp.array(dtype=f64), inflow: wp.array(dtype=f64),
+                     water_density: f64, k: f64, gravity: vec3, water_table: f64, homogeneous: int,
+                     momentum: int):  # fmt: skip
         """(s, c) with p_ghost = s p_source + c for ghost g (c = 0 when ``homogeneous``); each plane
-        drains (odd parity) where the initial position ``where`` lies in its drained extent."""
+        drains (odd parity) where the initial position ``where`` lies in its drained extent.
+
+        With ``momentum`` the parity is the one of the pressure *increment* in the velocity
+        correction: odd also at impermeable traction planes, whose total traction t̄ = σ′n − p n is
+        prescribed, so that the correction −(Δt/ρ)∇δp leaves it unchanged (the effective stress takes
+        up δp in the next predictor); water still does not cross them (Darcy parity even)."""
         x = q[source[g]]
         s = f64(1.0)
         c = zero
@@ -96,7 +102,10 @@ def _kernels(spec: Spec):
             if p >= 0:
                 m = plane_axis[p]
                 kind = drainage_here(p, where, m, drainage, drained_lo, drained_hi)
-                if kind == 1:
+                if momentum == 1 and kind != 1 and plane_kind[p] == PLANE_TRACTION:
+                    s = -s
+                    c = -c
+                elif kind == 1:
                     s = -s
                     c = -c
                     if homogeneous == 0:
@@ -114,17 +123,18 @@ def _kernels(spec: Spec):
     def pressure_ghosts(
         n_owned: int, source: wp.array(dtype=wp.int32), chain: wp.array(dtype=wp.vec3i), q: wp.array(dtype=vec3),
         origin: wp.array(dtype=vec3), material: wp.array(dtype=wp.int32), plane_axis: wp.array(dtype=wp.int32),
-        plane_position: wp.array(dtype=real), plane_sign: wp.array(dtype=real), drainage: wp.array(dtype=wp.int32),
-        drained_lo: wp.array(dtype=vec3), drained_hi: wp.array(dtype=vec3), drained_pressure: wp.array(dtype=f64),
-        head: wp.array(dtype=f64), inflow: wp.array(dtype=f64), water_density: wp.array(dtype=f64),
-        permeability: wp.array(dtype=f64), gravity: vec3, water_table: f64, homogeneous: int, p: wp.array(dtype=f64),
+        plane_position: wp.array(dtype=real), plane_sign: wp.array(dtype=real), plane_kind: wp.array(dtype=wp.int32),
+        drainage: wp.array(dtype=wp.int32), drained_lo: wp.array(dtype=vec3), drained_hi: wp.array(dtype=vec3),
+        drained_pressure: wp.array(dtype=f64), head: wp.array(dtype=f64), inflow: wp.array(dtype=f64),
+        water_density: wp.array(dtype=f64), permeability: wp.array(dtype=f64), gravity: vec3, water_table: f64,
+        homogeneous: int, momentum: int, p: wp.array(dtype=f64),
     ):  # fmt: skip
         g = wp.tid()
         src = source[g]
         mat = material[src]
-        s, c = ghost_affine(g, source, chain, q, origin[src], plane_axis, plane_position, plane_sign, drainage, drained_lo,
-                            drained_hi, drained_pressure, head, inflow, water_density[mat], permeability[mat], gravity,
-                            water_table, homogeneous)  # fmt: skip
+        s, c = ghost_affine(g, source, chain, q, origin[src], plane_axis, plane_position, plane_sign, plane_kind,
+                            drainage, drained_lo, drained_hi, drained_pressure, head, inflow, water_density[mat],
+                            permeability[mat], gravity, water_table, homogeneous, momentum)  # fmt: skip
         p[n_owned + g] = s * p[src] + c
 
     @wp.kernel(enable_backward=False, module="unique")
@@ -241,9 +251,10 @@ def _kernels(spec: Spec):
         water_density: wp.array(dtype=f64), gravity: vec3, v_star: wp.array(dtype=vec3),
         div_v_star: wp.array(dtype=f64), p_old: wp.array(dtype=f64), ghost_source: wp.array(dtype=wp.int32),
         ghost_chain: wp.array(dtype=wp.vec3i), plane_axis: wp.array(dtype=wp.int32),
-        plane_position: wp.array(dtype=real), plane_sign: wp.array(dtype=real), drainage: wp.array(dtype=wp.int32),
-        drained_lo: wp.array(dtype=vec3), drained_hi: wp.array(dtype=vec3), drained_pressure: wp.array(dtype=f64),
-        head: wp.array(dtype=f64), inflow: wp.array(dtype=f64), water_table: f64, dirichlet: wp.array(dtype=wp.int32), value: wp.array(dtype=f64),
+        plane_position: wp.array(dtype=real), plane_sign: wp.array(dtype=real), plane_kind: wp.array(dtype=wp.int32),
+        drainage: wp.array(dtype=wp.int32), drained_lo: wp.array(dtype=vec3), drained_hi: wp.array(dtype=vec3),
+        drained_pressure: wp.array(dtype=f64), head: wp.array(dtype=f64), inflow: wp.array(dtype=f64), water_table: f64,
+        dirichlet: wp.array(dtype=wp.int32), value: wp.array(dtype=f64),
         face_factor: wp.array(dtype=f64), weight: wp.array(dtype=f64), column: wp.array(dtype=wp.int32),
         diag: wp.array(dtype=f64), rhs: wp.array(dtype=f64),
     ):  # fmt: skip
@@ -277,23 +288,31 @@ def _kernels(spec: Spec):
             w_dt = vol_a * vol_j * (dt_rho_a + f64(dt) / f64(density[j])) * morris
             d += w
             col = j
-            s = f64(1.0)
+            s = f64(1.0)  # Darcy parity (the k part) ...
             cst = zero
+            s_dt = f64(1.0)  # ... and momentum parity (the Δt/ρ part) of a ghost: p_ghost = s p_col + cst
+            cst_dt = zero
             if j >= n:
                 g = j - n
                 col = ghost_source[g]
                 # a pair meeting across a plane drains by its midpoint, as its mirror pair does: the
                 # matrix stays symmetric where a drained extent ends
-                s, cst = ghost_affine(g, ghost_source, ghost_chain, q, real(0.5) * (origin[a] + origin[col]), plane_axis,
-                                      plane_position, plane_sign, drainage, drained_lo, drained_hi, drained_pressure,
-                                      head, inflow, water_density[mat_j], permeability[mat_j], gravity, water_table,
-                                      0)  # fmt: skip
-            b += w_dt * (p_old[a] - (s * p_old[col] + cst))  # −V ∇·((Δt/ρ)∇pⁿ)
-            b += w * cst
+                mid = real(0.5) * (origin[a] + origin[col])
+                s, cst = ghost_affine(g, ghost_source, ghost_chain, q, mid, plane_axis, plane_position, plane_sign,
+                                      plane_kind, drainage, drained_lo, drained_hi, drained_pressure, head, inflow,
+                                      water_density[mat_j], permeability[mat_j], gravity, water_table, 0, 0)  # fmt: skip
+                s_dt, cst_dt = ghost_affine(g, ghost_source, ghost_chain, q, mid, plane_axis, plane_position,
+                                            plane_sign, plane_kind, drainage, drained_lo, drained_hi, drained_pressure,
+                                            head, inflow, water_density[mat_j], permeability[mat_j], gravity,
+                                            water_table, 0, 1)  # fmt: skip
+            w_k = w - w_dt
+            b += w_dt * (p_old[a] - (s_dt * p_old[col] + cst_dt))  # −V ∇·((Δt/ρ)∇pⁿ)
+            b += w_k * cst + w_dt * cst_dt
+            coefficient = w_k * s + w_dt * s_dt  # the ghost's parities folded in: A x = diag x − Σ weight x[column]
             if dirichlet[col] == 1:
-                b += w * s * value[col]
-                w = zero
-            weight[k] = w * s  # the ghost's parity folded in: A x = diag x − Σ weight x[column]
+                b += coefficient * value[col]
+                coefficient = zero
+            weight[k] = coefficient
             column[k] = col
         diag[a] = d
         rhs[a] = b
@@ -380,11 +399,12 @@ class PressureProjection:
 
     def _plane_args(self):
         m, pw, b = self.model, self.model.pore, self.solver.boundaries
-        return [m.plane_axis, b.plane_position, m.plane_sign, pw.plane_drainage, pw.plane_drained_lo,
+        return [m.plane_axis, b.plane_position, m.plane_sign, m.plane_kind, pw.plane_drainage, pw.plane_drained_lo,
                 pw.plane_drained_hi, pw.plane_pressure, pw.plane_head, pw.plane_inflow]  # fmt: skip
 
-    def update_ghosts(self, q, p, homogeneous: bool, virtual: bool = False) -> None:
-        """Pressure-parity values of the ghosts of the real (or virtual) set in ``p``."""
+    def update_ghosts(self, q, p, homogeneous: bool, virtual: bool = False, momentum: bool = False) -> None:
+        """Pressure-parity values of the ghosts of the real (or virtual) set in ``p`` (with ``momentum``:
+        the parity of a pressure increment in the velocity correction, see ``ghost_affine``)."""
         m, pw = self.model, self.model.pore
         if virtual:
             n, src, chain, mat, count, origin = (m.virtual_count, m.virtual_ghost_source, m.virtual_ghost_planes,
@@ -396,7 +416,7 @@ class PressureProjection:
         args = self._plane_args()
         launch(self.k["pressure_ghosts"], count,
                [n, src, chain, q, origin, mat, args[0], args[1], args[2], *args[3:], pw.material_water_density,
-                pw.material_permeability, m.spec.vec3(*pw.gravity), wp.float64(pw.water_table), int(homogeneous), p],
+                pw.material_permeability, m.spec.vec3(*pw.gravity), wp.float64(pw.water_table), int(homogeneous), int(momentum), p],
                m.device)  # fmt: skip
 
     # -- the projection ---------------------------------------------------------------------------
@@ -456,11 +476,12 @@ class PressureProjection:
                 warnings.warn(message + " (further misses are counted in run.json)", stacklevel=2)
         # v = v* − (Δt/ρ) ∇(p − pⁿ), along the same path
         self.update_ghosts(si.particle_q, x, homogeneous=False)
-        launch(self.k["difference"], m.particle_total, [0, x, self.p_old, self.dp], dev)
-        self._gradient(si, self.dp, homogeneous=True)
+        launch(self.k["difference"], m.particle_count, [0, x, self.p_old, self.dp], dev)
+        self.update_ghosts(si.particle_q, self.dp, homogeneous=True, momentum=True)
+        self._gradient(si, self.dp, homogeneous=True, momentum=True)
         launch(self.k["correct_velocity"], n, [0, real(dt), self.grad, so.particle_density, so.particle_v], dev)
 
-    def _gradient(self, state, values, homogeneous: bool) -> None:
+    def _gradient(self, state, values, homogeneous: bool, momentum: bool = False) -> None:
         """``self.grad`` = ∇values at the real particles via the virtual points (geometry of ``state``);
         ``values`` has its real ghosts set; virtual ghosts get the same parity."""
         m, sol = self.model, self.solver
@@ -470,7 +491,7 @@ class PressureProjection:
         launch_rows(self.k["fit_scalar_at_virtual"], m.virtual_count,
                [h, nl_v.offsets, nl_v.indices, state.virtual_q, vf.c, vf.inv_den, vf.minv, state.particle_q,
                 m.particle_mass, state.particle_density, values, self.virtual_dp], dev)  # fmt: skip
-        self.update_ghosts(state.virtual_q, self.virtual_dp, homogeneous=homogeneous, virtual=True)
+        self.update_ghosts(state.virtual_q, self.virtual_dp, homogeneous=homogeneous, virtual=True, momentum=momentum)
         launch_rows(self.k["gradient_at_real"], m.particle_count,
                [h, nl_r.offsets, nl_r.indices, state.particle_q, rf.c, rf.inv_den, rf.minv, rf.e, state.virtual_q,
                 m.virtual_mass, state.virtual_density, self.virtual_dp, self.grad], dev)  # fmt: skip
