@@ -302,6 +302,9 @@ class Boundary(_OnPlane):
     time_function: TimeFunction = field(default_factory=TimeFunction)
     drainage: Drainage = field(default_factory=Drainage)
     """Pore-water condition of the plane (pore_water effect)."""
+    friction_angle: float = 0.0
+    """A "slip" plane of a large-deformation scene: Coulomb friction angle [deg] between the plane
+    and the particles lying on it (0: frictionless; docs/method.md, "Large deformation")."""
 
 
 @dataclass

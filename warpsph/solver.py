@@ -168,7 +168,7 @@ class Solver:
     def _prescribe(self, si: State, so: State, t: float, dt: float) -> None:
         self.boundaries.set_time(t + dt)
         if self.layout is not None:
-            self.layout.keep_inside(so.particle_q, so.particle_v)
+            self.layout.keep_inside(so.particle_q, so.particle_v, so.particle_stress, so.particle_density, dt)
         self.boundaries.prescribe(so.particle_q, so.particle_v, so.particle_stress, si.particle_pore_pressure)
         self.rigid.prescribe(so.particle_v)
 

@@ -538,6 +538,11 @@ def _check_one_record_per_plane(boundaries: list, loads: list) -> None:
 def _check_boundary(boundary: Boundary, key: str, scene: Scene) -> None:
     check_types(boundary, key)
     check_choice(f"{key}.kind", boundary.kind, ("fixed", "slip", "symmetry", "free", "velocity"))
+    check_range(f"{key}.friction_angle", boundary.friction_angle, Interval(0.0, 90.0, True, False))
+    if boundary.friction_angle > 0.0 and not (boundary.kind == "slip" and scene.simulation.large_deformation):
+        raise SceneError(f"{key}.friction_angle",
+                         "friction acts on the particles that join a slip plane: it needs kind = \"slip\" and "
+                         "simulation.large_deformation = true")  # fmt: skip
     _check_face(boundary, key, scene.simulation.dim)
     _check_time_function(boundary.time_function, f"{key}.time_function")
     _check_drainage(boundary.drainage, f"{key}.drainage", scene.effects)
