@@ -365,6 +365,12 @@ def _check_simulation(sim: Simulation) -> None:
     check_range("simulation.velocity_limit", sim.velocity_limit, POSITIVE)
     check_range("simulation.free_surface_threshold", sim.free_surface_threshold, Interval(0.0, 1.0))
     check_choice("simulation.virtual_points", sim.virtual_points, ("advected", "regenerated"))
+    check_choice("simulation.particle_velocity", sim.particle_velocity, ("fitted", "own"))
+    check_range("simulation.particle_shifting", sim.particle_shifting, NON_NEGATIVE)
+    if (sim.particle_shifting > 0.0 or sim.particle_velocity != "fitted") and not (
+            sim.large_deformation and sim.scheme == "two_set"):
+        raise SceneError("simulation", "particle_shifting and particle_velocity = \"own\" are large-deformation "
+                         "choices of the two-set scheme: they need large_deformation = true and scheme = \"two_set\"")
 
 
 def _check_effects(effects: Effects) -> None:
