@@ -7,13 +7,15 @@ from some particles (docs/method.md, "Large deformation"). Each set is therefore
 down the gradient of its own concentration C = Σ_b V_b W(x − x_b) (Fickian shifting, Lind et al.
 2012), over its owned points and their mirror ghosts (a wall's images balance its points):
 
-    δx_a = −A h² (Δt ‖d‖_a) ∇C_a,
+    δx_a = −A h² (Δt ‖d‖_a) ∇C_a,   at most h Δt ‖d‖_a long,
 
-where Δt‖d‖ is the strain increment of the step (‖d‖ = √(d:d)), so points shift only as fast as the
-flow distorts them: not in a rigid motion, not at rest. In the free-surface band (smallest
-correction eigenvalue below the threshold) the part along the surface normal is removed, so the
-surface does not move. A real particle's rate is the largest of its virtual neighbours'. The real
-particles' fields are carried to the shifted place by their fitted gradients (v + (δx·∇)v,
+where Δt‖d‖ is the point's own strain increment of the step (‖d‖ = √(d:d) of its fitted rate of
+deformation), so points shift only as fast as the flow distorts them: not in a rigid motion, not at
+rest, and never farther than their neighbours moved relative to them in the step (measured on the
+collapse: with the largest rate of the neighbours instead of the own, and without the bound, a
+spurious rate at one point shifted a particle at 2 m/s, eight times its speed). In the free-surface
+band (smallest correction eigenvalue below the threshold) the part along the surface normal is
+removed, so the surface does not move. The real particles' fields are carried to the shifted place by their fitted gradients (v + (δx·∇)v,
 σ′ + (δx·∇)σ′, in the full step); virtual points carry only their position and density (their Φ is
 fitted afresh every step), so they just move.
 """
@@ -89,9 +91,10 @@ def shifting_kernels(spec: Spec):
 
 
 def compute_shift(model, neighbours, q, n_owned: int, mass, density, rate, fits, out, dt: float) -> None:
-    """``rate`` None: only the direction −h²∇C (the full step scales it by the particle's own rate)."""
     """Shift ``out[:n_owned]`` [m] of the points ``q`` down their own concentration gradient
-    (``neighbours``: the same set's list, ghosts included; ``fits``: the points' FitData)."""
+    (``neighbours``: the same set's list, ghosts included; ``fits``: the points' FitData; ``rate``:
+    their ‖d‖ [1/s], or None for the direction −h²∇C alone, which the full step scales by each real
+    particle's own rate)."""
     shift = shifting_kernels(model.spec)[0]
     real = model.spec.real
     sim = model.scene.simulation
