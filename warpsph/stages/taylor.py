@@ -19,7 +19,10 @@ applied after the flux (sequential splitting): σ* = Φⁿ + Δt Dᵉ:d, then Δ
 the equivalent plastic strain ε̄ (fitted from the reals at the virtual points, the real particle's
 own in the full step) advances by the source's Δε̄; the dry elastic variant is unchanged.
 Virtual points move with their half-step velocity, real particles with the half-step velocity
-fitted at them; densities follow continuity. Both use the configuration at tⁿ. Optional Monaghan
+fitted at them or, with ``simulation.particle_velocity = "own"``, with their own (vⁿ + vⁿ⁺¹)/2 (then
+a particle whose fit falls back to Shepard is in free flight); with particle shifting a real particle
+also moves by its shift and takes its fields there (:mod:`warpsph.stages.shifting`); densities
+follow continuity. Both use the configuration at tⁿ. Optional Monaghan
 artificial viscosity acts between real particles and virtual points in the full step.
 """
 
