@@ -1,19 +1,20 @@
-"""Collapse of a dry granular column (scenes/column_collapse.toml): large deformation in the default run.
+"""Collapse of a dry granular column (scenes/column_collapse.toml): large deformation to rest in the default run.
 
-Measured (Δx = 0.025 m, 231 particles, about 10 s on 2 cores): the front moves out from L0 = 0.25 m
-to 0.686 m by 0.45 s and the top falls from 0.5 m to 0.251 m. Checked here:
+Measured (Δx = 0.025 m, 231 particles, 6 188 steps to 2 s, about 20 s on one core): the front moves
+out from L0 = 0.25 m to 0.876 m by 1.1 s, where the bulk has come to rest ((L_f − L0)/L0 = 2.50);
+a few toe particles slide on at 1.5–1.6 s, to 0.920 m (2.68) at 2 s; the top falls from 0.5 m to
+0.198 m and rises by 7 mm after rest. Checked here:
 
 - kinematic bounds: front displacement and the fall of the top below free fall ½ g t² (no particle is
-  pushed faster than gravity could take it) plus the elastic release of the start's stress, both
-  monotone;
+  pushed faster than gravity could take it) plus the elastic release of the start's stress; the
+  front never retreats, the top falls while the column collapses (to 1 s);
 - the flow is a flow: the largest plastic strain exceeds 1, the volume V = Σ m/ρ stays within 2 % of
   the start (ψ = 0: the plastic flow keeps the volume; the crack opening of the tension cut-off is
   voids between particles, not particle volume);
-- every particle stays on or above the floor.
-
-The final runout (Lube et al. 2005: (L_f − L0)/L0 ≈ 1.2 a = 2.4 for a = 2 on a rough base) is a strict
-expected failure: every variant tried blows up between 0.35 and 0.6 s (docs/method.md, "Large
-deformation").
+- every particle stays on or above the floor;
+- it comes to rest at the runout of the experiments (Lube et al. 2005: (L_f − L0)/L0 ≈ 1.2 a = 2.4
+  for a = 2 on a rough base), within 25 %: the front is one particle (± Δx = ± 0.1 in the ratio) and
+  the runout moved between 2.51 and 2.68 when the basal friction angle was changed by ±1°.
 """
 
 from pathlib import Path
@@ -22,7 +23,6 @@ from types import SimpleNamespace
 import numpy as np
 import pytest
 
-from warpsph.errors import SimulationError
 from warpsph.io import load_results
 from warpsph.runner import Run
 from warpsph.scene_toml import load_scene
@@ -48,11 +48,13 @@ def test_collapse_stays_within_kinematic_bounds(collapse):
     t, front = collapse.results.series("front")
     _, top = collapse.results.series("top")
     print(f"\nfront {front[-1]:.3f} m, top {top[-1]:.3f} m at {t[-1]:.3f} s")
-    assert np.all(np.diff(front) >= -1e-4) and np.all(np.diff(top) <= 1e-4)  # 0.4 % of Δx: the elastic start
+    collapsing = t <= 1.0
+    assert np.all(np.diff(front) >= -1e-4)  # 0.4 % of Δx: the elastic start
+    assert np.all(np.diff(top[collapsing]) <= 1e-4)
+    assert np.all(np.abs(top[~collapsing] - top[collapsing][-1]) < 0.5 * 0.025)  # at rest within Δx/2
     # plus 1 mm for the elastic release of the start's stress (K0 ρ g H0 L0 / E = 0.5 mm at the toe)
     bound = 0.5 * G * t**2 + 1e-3
     assert np.all(front - L0 <= bound) and np.all(H0 - top <= bound)
-    assert front[-1] - L0 > 1.0 * L0  # it spreads: more than its own half-width by 0.45 s
 
 
 def test_collapse_flows_at_constant_volume_on_its_floor(collapse):
@@ -64,13 +66,13 @@ def test_collapse_flows_at_constant_volume_on_its_floor(collapse):
     assert first["plastic_strain"].max() == 0.0
 
 
-@pytest.mark.slow
-@pytest.mark.xfail(strict=True, raises=SimulationError,
-                   reason="measured: blows up between 0.35 and 0.6 s in every variant tried (docs/method.md)")
-def test_collapse_comes_to_rest_at_the_measured_runout(tmp_path):
-    scene = load_scene(SCENE)
-    scene.output.usd = False
-    scene.simulation.end_time = 2.0
-    Run(scene, tmp_path).run()
-    _, front = load_results(tmp_path / "results.h5").series("front")
+def test_collapse_comes_to_rest_at_the_measured_runout(collapse):
+    results = collapse.results
+    _, front = results.series("front")
+    late = [k for k, t in enumerate(results.times) if t >= results.times[-1] - 0.3]
+    speeds = np.array([np.linalg.norm(results.frame(k)["velocity"], axis=1) for k in late])
+    print(f"\nrunout (L_f - L0)/L0 = {(front[-1] - L0) / L0:.3f}; over the last 0.3 s: largest speed "
+          f"{speeds.max():.4f} m/s, 95th percentile {np.percentile(speeds, 95):.4f} m/s")
     assert (front[-1] - L0) / L0 == pytest.approx(2.4, rel=0.25)
+    assert speeds.max() < 0.05  # measured 0.030 (one particle on the centre line)
+    assert np.percentile(speeds, 95) < 0.015  # measured 0.0092

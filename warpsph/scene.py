@@ -110,6 +110,13 @@ class Simulation:
     virtual_points: str = "advected"
     """Large deformation: "advected" (virtual points move with their half-step velocity) or
     "regenerated" (rebuilt on the start's lattice from the real particles at every ghost re-plan)."""
+    particle_velocity: str = "fitted"
+    """Two-set scheme: the velocity that moves the real particles, "fitted" (v^{n+½} fitted from the
+    virtual points) or "own" (the particle's own, (vⁿ + vⁿ⁺¹)/2; docs/method.md, "Large deformation")."""
+    particle_shifting: float = 0.0
+    """Large deformation, two-set scheme: particle-shifting coefficient A [-] (0 disables it). Each
+    point set is shifted by −A h² Δt‖d‖ ∇C down the gradient of its own concentration C (docs/method.md,
+    "Large deformation")."""
 
 
 @dataclass(frozen=True)
@@ -302,6 +309,9 @@ class Boundary(_OnPlane):
     time_function: TimeFunction = field(default_factory=TimeFunction)
     drainage: Drainage = field(default_factory=Drainage)
     """Pore-water condition of the plane (pore_water effect)."""
+    friction_angle: float = 0.0
+    """A "slip" plane of a large-deformation scene: Coulomb friction angle [deg] between the plane
+    and the particles lying on it (0: frictionless; docs/method.md, "Large deformation")."""
 
 
 @dataclass

@@ -24,6 +24,7 @@ from warpsph.stages.collocated import RK_TABLEAU, collocated_kernels
 from warpsph.stages.corrections import FitData, compute_fit_data
 from warpsph.stages.ghost_layout import GhostLayout
 from warpsph.stages.rigid import RigidRegions
+from warpsph.stages.shifting import apply_shift, compute_shift
 from warpsph.stages.virtual_points import VirtualRegenerator
 from warpsph.stages.pressure import PressureProjection
 from warpsph.stages.taylor import taylor_kernels
@@ -71,6 +72,9 @@ class Solver:
         self.real_to_virtual = NeighbourList(s, m.extent, self.support, dev)
         self.real_fits = FitData(s, m.particle_capacity, dev)
         self.virtual_fits = FitData(s, m.virtual_capacity, dev)
+        self.virtual_rate = wp.zeros(m.virtual_capacity, dtype=s.real, device=dev)
+        self.shifting = m.scene.simulation.particle_shifting > 0.0
+        self.real_shift = wp.zeros(m.particle_capacity if self.shifting else 1, dtype=s.vec3, device=dev)
         self.stages = [
             Stage("ghosts", self._ghosts_two_set),
             Stage("neighbours", self._neighbours_two_set),
@@ -80,6 +84,11 @@ class Solver:
             Stage("taylor_full_step", self._full_step),
             Stage("prescribed_values", self._prescribe),
         ]
+        if self.shifting:
+            self.virtual_shift = wp.zeros(m.virtual_capacity, dtype=s.vec3, device=dev)
+            self.shift_real_to_real = NeighbourList(s, m.extent, self.support, dev, same_set=True)
+            self.shift_virtual_to_virtual = NeighbourList(s, m.extent, self.support, dev, same_set=True)
+            self.stages.insert(self.stage_names.index("taylor_full_step"), Stage("shifting", self._shifting))
         self.virtual_p = None
         if s.effects.pore_water:
             self.virtual_p = wp.zeros(m.virtual_capacity, dtype=wp.float64, device=dev)
@@ -130,7 +139,21 @@ class Solver:
                 *self.virtual_fits.arrays(),
                 m.material_lambda, m.material_shear, self.virtual_v, self.virtual_stress, so.virtual_q,
                 so.virtual_density, si.particle_pore_pressure, self._water_density, self.virtual_p,
-                si.particle_plastic_strain, m.material_plasticity], m.device)  # fmt: skip
+                si.particle_plastic_strain, m.material_plasticity, self.virtual_rate], m.device)  # fmt: skip
+
+    def _shifting(self, si: State, so: State, t: float, dt: float) -> None:
+        """Shifts of both sets from the configuration at tⁿ: the virtual points' are applied to their
+        new positions here, the real particles' in the full step (with their fields)."""
+        m = self.model
+        nv = m.virtual_count
+        if m.scene.simulation.virtual_points == "advected":
+            self.shift_virtual_to_virtual.build(si.virtual_q, nv, si.virtual_q, m.virtual_total)
+            compute_shift(m, self.shift_virtual_to_virtual, si.virtual_q, nv, m.virtual_mass, si.virtual_density,
+                          self.virtual_rate, self.virtual_fits, self.virtual_shift, dt)  # fmt: skip
+            apply_shift(m, nv, self.virtual_shift, so.virtual_q)
+        self.shift_real_to_real.build(si.particle_q, m.particle_count, si.particle_q, m.particle_total)
+        compute_shift(m, self.shift_real_to_real, si.particle_q, m.particle_count, m.particle_mass,
+                      si.particle_density, None, self.real_fits, self.real_shift, dt)  # fmt: skip
 
     def _virtual_ghosts(self, si: State, so: State, t: float, dt: float) -> None:
         self.boundaries.set_time(t + 0.5 * dt)
@@ -145,6 +168,7 @@ class Solver:
         real = m.spec.real
         _, full_step = taylor_kernels(m.spec)
         nl = self.real_to_virtual
+        own = int(m.scene.simulation.particle_velocity == "own")
         launch_rows(full_step, m.particle_count,
                [real(m.h), real(dt), m.spec.vec3(*m.gravity), real(m.scene.simulation.free_surface_threshold),
                 real(m.scene.simulation.artificial_viscosity), nl.offsets, nl.indices, si.virtual_q,
@@ -153,7 +177,8 @@ class Solver:
                 si.particle_stress, si.particle_density, m.particle_material, m.material_lambda, m.material_shear,
                 m.material_wave_speed, so.particle_q, so.particle_v, so.particle_stress, so.particle_density,
                 self.virtual_p, self._water_density, si.particle_plastic_strain, m.material_plasticity,
-                so.particle_plastic_strain], m.device)  # fmt: skip
+                so.particle_plastic_strain, int(self.shifting), real(m.scene.simulation.particle_shifting), self.real_shift,
+                own, own], m.device)  # fmt: skip
 
     @property
     def _water_density(self):
@@ -168,7 +193,7 @@ class Solver:
     def _prescribe(self, si: State, so: State, t: float, dt: float) -> None:
         self.boundaries.set_time(t + dt)
         if self.layout is not None:
-            self.layout.keep_inside(so.particle_q, so.particle_v)
+            self.layout.keep_inside(so.particle_q, so.particle_v, so.particle_stress, so.particle_density, dt)
         self.boundaries.prescribe(so.particle_q, so.particle_v, so.particle_stress, si.particle_pore_pressure)
         self.rigid.prescribe(so.particle_v)
 

@@ -365,6 +365,12 @@ def _check_simulation(sim: Simulation) -> None:
     check_range("simulation.velocity_limit", sim.velocity_limit, POSITIVE)
     check_range("simulation.free_surface_threshold", sim.free_surface_threshold, Interval(0.0, 1.0))
     check_choice("simulation.virtual_points", sim.virtual_points, ("advected", "regenerated"))
+    check_choice("simulation.particle_velocity", sim.particle_velocity, ("fitted", "own"))
+    check_range("simulation.particle_shifting", sim.particle_shifting, NON_NEGATIVE)
+    if (sim.particle_shifting > 0.0 or sim.particle_velocity != "fitted") and not (
+            sim.large_deformation and sim.scheme == "two_set"):
+        raise SceneError("simulation", "particle_shifting and particle_velocity = \"own\" are large-deformation "
+                         "choices of the two-set scheme: they need large_deformation = true and scheme = \"two_set\"")
 
 
 def _check_effects(effects: Effects) -> None:
@@ -538,6 +544,11 @@ def _check_one_record_per_plane(boundaries: list, loads: list) -> None:
 def _check_boundary(boundary: Boundary, key: str, scene: Scene) -> None:
     check_types(boundary, key)
     check_choice(f"{key}.kind", boundary.kind, ("fixed", "slip", "symmetry", "free", "velocity"))
+    check_range(f"{key}.friction_angle", boundary.friction_angle, Interval(0.0, 90.0, True, False))
+    if boundary.friction_angle > 0.0 and not (boundary.kind == "slip" and scene.simulation.large_deformation):
+        raise SceneError(f"{key}.friction_angle",
+                         "friction acts on the particles that join a slip plane: it needs kind = \"slip\" and "
+                         "simulation.large_deformation = true")  # fmt: skip
     _check_face(boundary, key, scene.simulation.dim)
     _check_time_function(boundary.time_function, f"{key}.time_function")
     _check_drainage(boundary.drainage, f"{key}.drainage", scene.effects)

@@ -13,6 +13,7 @@ slots are allocated up to a capacity at build; only the first ``*_ghost_count`` 
 
 
 import functools
+import math
 
 import numpy as np
 import warp as wp
@@ -81,10 +82,18 @@ def _keep_inside_kernel(spec: Spec):
         plane_kind: wp.array(dtype=wp.int32),
         q: wp.array(dtype=vec3),
         v: wp.array(dtype=vec3),
+        friction: wp.array(dtype=real),
+        stress: wp.array(dtype=spec.mat33),
+        density: wp.array(dtype=real),
+        dt: real,
+        dx: real,
     ):
         """A particle closer to a fixed or slip plane p than ``contact[p]`` [m], or beyond it, joins
         it: it goes onto the plane and keeps no velocity into it (fixed: no velocity at all), as the
-        particles that start on a plane do."""
+        particles that start on a plane do. On a slip plane with friction μ the particles lying on it
+        lose up to μ times their normal impulse per unit mass of tangential speed (Coulomb): the
+        normal traction −σ_nn over the step, on the area V/Δx a particle stands for, plus the velocity
+        into the plane just removed (the contact impulse of a particle the stress does not carry)."""
         a = wp.tid()
         x = q[a]
         u = v[a]
@@ -96,8 +105,23 @@ def _keep_inside_kernel(spec: Spec):
                     x[m] = plane_position[p]
                     if kind == PLANE_FIXED:
                         u = vec3(real(0.0), real(0.0), real(0.0))
-                    elif plane_sign[p] * u[m] > real(0.0):
-                        u[m] = real(0.0)
+                    else:
+                        removed = real(0.0)
+                        if plane_sign[p] * u[m] > real(0.0):
+                            removed = wp.abs(u[m])
+                            u[m] = real(0.0)
+                        if friction[p] > real(0.0):
+                            pn = wp.max(-stress[a][m, m], real(0.0))
+                            dv = friction[p] * (pn * dt / (density[a] * dx) + removed)
+                            ut = u
+                            ut[m] = real(0.0)
+                            speed = wp.length(ut)
+                            if speed <= dv:
+                                ut = vec3(real(0.0), real(0.0), real(0.0))
+                            else:
+                                ut = ut * ((speed - dv) / speed)
+                            ut[m] = u[m]
+                            u = ut
         q[a] = x
         v[a] = u
 
@@ -160,15 +184,19 @@ class GhostLayout:
         contact = [0.0 if b.kind == "symmetry" else CONTACT * model.dx for b in model.scene.boundaries]
         contact += [0.0] * (model.plane_count - len(contact))
         self.plane_contact = wp.array(contact or [0.0], dtype=model.spec.real, device=model.device)
+        friction = [math.tan(math.radians(b.friction_angle)) for b in model.scene.boundaries]
+        friction += [0.0] * (model.plane_count - len(friction))
+        self.plane_friction = wp.array(friction or [0.0], dtype=model.spec.real, device=model.device)
+        """(P,) Coulomb friction coefficient μ = tan φ_b of each plane [-]."""
         self.replans = 0
         """Number of re-plans so far [-]."""
 
-    def keep_inside(self, q: wp.array, v: wp.array) -> None:
+    def keep_inside(self, q: wp.array, v: wp.array, stress, density, dt) -> None:
         """Owned real particles that reach a wall (or cross any fixed or slip plane) join it."""
         m = self.model
         launch(_keep_inside_kernel(m.spec), m.particle_count,
                [m.plane_count, self.plane_contact, m.plane_axis, self.plane_position, m.plane_sign, m.plane_kind, q,
-                v], m.device)  # fmt: skip
+                v, self.plane_friction, stress, density, m.spec.real(dt), m.spec.real(m.dx)], m.device)  # fmt: skip
 
     def _positions(self, state) -> list:
         return [state.particle_q, state.virtual_q][: len(self.sets)]

@@ -19,7 +19,10 @@ applied after the flux (sequential splitting): σ* = Φⁿ + Δt Dᵉ:d, then Δ
 the equivalent plastic strain ε̄ (fitted from the reals at the virtual points, the real particle's
 own in the full step) advances by the source's Δε̄; the dry elastic variant is unchanged.
 Virtual points move with their half-step velocity, real particles with the half-step velocity
-fitted at them; densities follow continuity. Both use the configuration at tⁿ. Optional Monaghan
+fitted at them or, with ``simulation.particle_velocity = "own"``, with their own (vⁿ + vⁿ⁺¹)/2 (then
+a particle whose fit falls back to Shepard is in free flight); with particle shifting a real particle
+also moves by its shift and takes its fields there (:mod:`warpsph.stages.shifting`); densities
+follow continuity. Both use the configuration at tⁿ. Optional Monaghan
 artificial viscosity acts between real particles and virtual points in the full step.
 """
 
@@ -32,6 +35,7 @@ from warpsph.physics.plasticity import material_struct, plastic_functions
 from warpsph.sph.kernels import smoothing_functions
 from warpsph.sph.operators import operator_functions
 from warpsph.sph.spec import Spec
+from warpsph.stages.shifting import shifting_kernels
 
 
 @functools.cache
@@ -40,6 +44,7 @@ def taylor_kernels(spec: Spec):
     real, vec3, mat33 = spec.real, spec.vec3, spec.mat33
     _fit, fit_weights, _unused, _eig = operator_functions(spec)
     _W, grad_W = smoothing_functions(spec)
+    shift_scaled = shifting_kernels(spec)[2]
     hooke_rate, source_increment, split_velocity_gradient = elastic_functions(spec)
     zero, half, one, two, two_thirds = real(0.0), real(0.5), real(1.0), real(2.0), real(2.0 / 3.0)
     moves = vec3(*map(real, spec.axis_mask))  # points move only along the used axes (1D shear: v_x ≠ 0)
@@ -51,6 +56,12 @@ def taylor_kernels(spec: Spec):
     plastic_source = plastic.source_increment if plasticity else None
     tension_cutoff = plastic.tension_cutoff if plasticity else None
     variant = f"_plastic_{spec.yield_function}" if plasticity else ""
+
+    @wp.func
+    def uncorrected(c: vec3, Minv: mat33):
+        """Whether a point's fit fell back to Shepard + the uncorrected gradient (its neighbours
+        cannot fit a linear field): the fallback stores exactly c = 0 and M⁻¹ = I."""
+        return c == vec3(zero, zero, zero) and Minv == wp.identity(3, dtype=real)
 
     @wp.func
     def fit_value(
@@ -147,6 +158,7 @@ def taylor_kernels(spec: Spec):
         virt_p: wp.array(dtype=wp.float64),
         real_plastic_strain: wp.array(dtype=real),
         plastic_material: wp.array(dtype=PlasticMaterial),
+        virt_rate: wp.array(dtype=real),
     ):
         i = first + wp.tid()
         x = virt_q[i]
@@ -176,6 +188,7 @@ def taylor_kernels(spec: Spec):
             s_half = s + hdt * hooke_rate(d, lam[mat], shear[mat]) + source_increment(s, spin, hdt)
         virt_v_half[i] = v_half
         virt_stress_half[i] = s_half
+        virt_rate[i] = wp.sqrt(wp.ddot(d, d))  # ‖d‖ [1/s], the rate particle shifting follows
         virt_q_out[i] = x + dt * wp.cw_mul(v_half, moves)
         virt_density_out[i] = rho * wp.exp(opening - dt * wp.trace(d))
 
@@ -220,6 +233,11 @@ def taylor_kernels(spec: Spec):
         plastic_strain: wp.array(dtype=real),
         plastic_material: wp.array(dtype=PlasticMaterial),
         plastic_strain_out: wp.array(dtype=real),
+        shifting: int,
+        shifting_coefficient: real,
+        shift: wp.array(dtype=vec3),
+        own_velocity: int,
+        free_when_unfitted: int,
     ):
         a = first + wp.tid()
         x = q[a]
@@ -228,8 +246,12 @@ def taylor_kernels(spec: Spec):
                                             real_fit_minv[a], real_fit_e[a], virt_fit_c, virt_fit_inv_den,
                                             virt_fit_minv, virt_fit_e, real_fit_lambda[a] < surface_threshold,
                                             virt_p)  # fmt: skip
-        if offsets[a + 1] == offsets[a]:
-            # no virtual point near: a particle in free flight (ballistic, its stress frozen)
+        free = offsets[a + 1] == offsets[a]
+        if free_when_unfitted != 0 and uncorrected(real_fit_c[a], real_fit_minv[a]):
+            free = True
+        if free:
+            # no virtual point near (or, moving with its own velocity, too few to fit a linear
+            # field): a particle in free flight (ballistic, its stress frozen)
             G = mat33(zero)
             div = vec3(zero, zero, zero)
             v_half = v[a]
@@ -250,7 +272,7 @@ def taylor_kernels(spec: Spec):
         body_force = gravity
         if wp.static(pore_water):
             body_force = gravity * (one - real(water_density[mat]) / rho)
-        if offsets[a + 1] == offsets[a]:
+        if free:
             v_half = v[a] + half * dt * body_force
         visc = vec3(zero, zero, zero)
         if alpha > zero:
@@ -267,9 +289,27 @@ def taylor_kernels(spec: Spec):
                     mu = h * vr / (wp.dot(xai, xai) + real(0.01) * h * h)
                     rbar = half * (rho + virt_density[i])
                     visc += (virt_mass[i] * alpha * ca * mu / rbar) * grad_W(xai, h)
-        v_out[a] = v[a] + dt * (div / rho + body_force + visc)
-        stress_out[a] = s_new
-        q_out[a] = x + dt * wp.cw_mul(v_half, moves)
+        dx = vec3(zero, zero, zero)
+        d_v = vec3(zero, zero, zero)
+        d_s = mat33(zero)
+        if shifting != 0 and not free:
+            # particle shifting: the particle moves by dx off its path and takes the fields there,
+            # v + (dx·∇)v and σ′ + (dx·∇)σ′ with the fitted gradients of Φ^{n+½}
+            dx = shift_scaled(shift[a], shifting_coefficient, h, dt * wp.sqrt(wp.ddot(d, d)))
+            d_v = wp.transpose(G) * dx
+            for k in range(offsets[a], offsets[a + 1]):
+                i = nbr[k]
+                psi_i, phi_i = fit_weights(virt_q[i] - x, h, real_fit_c[a], real_fit_inv_den[a], real_fit_minv[a])
+                d_s += (virt_mass[i] / virt_density[i] * wp.dot(phi_i, dx)) * virt_stress_half[i]
+            d_s -= wp.dot(real_fit_e[a], dx) * s_half
+        v_out[a] = v[a] + dt * (div / rho + body_force + visc) + d_v
+        stress_out[a] = s_new + d_s
+        if own_velocity != 0:
+            # the particle moves with its own velocity, the mean of vⁿ and vⁿ⁺¹ (the shift's
+            # correction of the field aside): a velocity it gains also moves it
+            q_out[a] = x + dt * wp.cw_mul(half * (v[a] + v_out[a] - d_v), moves) + dx
+        else:
+            q_out[a] = x + dt * wp.cw_mul(v_half, moves) + dx
         density_out[a] = rho * wp.exp(opening - dt * wp.trace(d))
 
     return half_step, full_step
