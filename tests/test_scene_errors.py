@@ -244,6 +244,18 @@ BAD_CASES = {
                                  "simulation.large_deformation"),
     "unknown virtual_points": (edit("end_time = 0.5", 'end_time = 0.5\nvirtual_points = "remeshed"'),
                                "simulation.virtual_points"),
+    "unknown particle_velocity": (edit("end_time = 0.5", 'end_time = 0.5\nlarge_deformation = true\n'
+                                                          'particle_velocity = "mean"'), "simulation.particle_velocity"),
+    "negative particle_shifting": (edit("end_time = 0.5", "end_time = 0.5\nlarge_deformation = true\n"
+                                                           "particle_shifting = -1"), "simulation.particle_shifting"),
+    "particle shifting without large deformation": (edit("end_time = 0.5", "end_time = 0.5\nparticle_shifting = 5"),
+                                                    "simulation"),
+    "floor friction angle 90": (chain(edit("end_time = 0.5", "end_time = 0.5\nlarge_deformation = true"),
+                                      edit('kind = "slip"', 'kind = "slip"\nfriction_angle = 90')),
+                                "boundaries.left.friction_angle"),
+    "friction on a fixed wall": (chain(edit("end_time = 0.5", "end_time = 0.5\nlarge_deformation = true"),
+                                       edit('kind = "fixed"', 'kind = "fixed"\nfriction_angle = 30')),
+                                 "boundaries.base.friction_angle"),
     "force load without region": (append(RIGID.format(kind="force", extra="force = [0, -1000]")), "loads.cap.region"),
     "unknown contact": (append(RIGID.format(kind="velocity", extra='velocity = [0, -0.1]\ncontact = "sticky"\n'
                                                                    "region = { min = [0, 1.9] }")),
