@@ -10,6 +10,9 @@ from warpsph.model import Model, State
 from warpsph.sph.spec import Spec
 
 NO_PARTICLE = 2**31 - 1
+LARGEST_SPEED = 1.0e30
+"""Speed [m/s] beyond which a particle is bad whatever the scene's velocity_limit (also with none: a
+blow-up on its way to overflow is caught before it reaches float32's 3.4e38)."""
 
 
 @functools.cache
@@ -43,7 +46,7 @@ class Guard:
 
     def __init__(self, model: Model, speed_limit: float):
         self.model = model
-        self.speed_limit = min(speed_limit, 1.0e30)
+        self.speed_limit = min(speed_limit, LARGEST_SPEED)
         self.flag = wp.zeros(1, dtype=wp.int32, device=model.device)
 
     def first_bad(self, state: State) -> int | None:

@@ -255,7 +255,11 @@ def taylor_kernels(spec: Spec):
             G = mat33(zero)
             div = vec3(zero, zero, zero)
             v_half = v[a]
-        d, spin = split_velocity_gradient(G)
+        # rate of deformation and spin of the step on its midpoint configuration x + (Δt/2) v^{n+½}
+        # (Hughes–Winget): G was fitted on the configuration at tⁿ, on which the half-step velocity of
+        # a rigid rotation has the divergence −Δt ω², a spurious compression each step (a spinning
+        # disc's rim drifted outward by π ωΔt R per turn, docs/method.md)
+        d, spin = split_velocity_gradient(wp.inverse(wp.identity(n=3, dtype=real) + half * dt * G) * G)
         mat = material[a]
         rho = density[a]
         s = stress[a]
