@@ -34,17 +34,22 @@ HYDROSTATIC_CENTRE = 1000.0 * 9.81 * 1.5
 """p_w at the pore_pressure_centre probe, 1.5 m below the water table [Pa]."""
 
 
-def drained_twin(scene):
-    """The drained limit: the soil dry, with the buoyant density ρ − ρ_w, every face impermeable."""
+def dry_twin(scene):
+    """The same scene without pore water: same density, same planes, no drainage, no pore-water output."""
     scene.effects = dataclasses.replace(scene.effects, pore_water=False)
-    scene.materials = {name: dataclasses.replace(m, density=m.density - m.water_density, grain_density=None)
-                       for name, m in scene.materials.items()}  # fmt: skip
     for item in [*scene.boundaries, *scene.loads]:
         item.drainage = Drainage()
     scene.probes = [p for p in scene.probes if p.field != "pore_pressure"]
     scene.output.fields = [f for f in scene.output.fields if f not in ("pore_pressure", "darcy_velocity")]
     scene.validate()
     return scene
+
+
+def drained_twin(scene):
+    """The drained limit: the soil dry, with the buoyant density ρ − ρ_w, every face impermeable."""
+    scene.materials = {name: dataclasses.replace(m, density=m.density - m.water_density, grain_density=None)
+                       for name, m in scene.materials.items()}  # fmt: skip
+    return dry_twin(scene)
 
 
 def run(scene, tmp_path_factory, name):
@@ -128,17 +133,6 @@ def test_slowly_loaded_saturated_footing_stands(saturated, drained, tmp_path_fac
 
 CUT = Path(__file__).resolve().parent.parent / "scenes" / "saturated_cut.toml"
 CUT_HEIGHT = 2.2
-
-
-def dry_twin(scene):
-    """The same cut without pore water: same density, same zero-traction planes, no drainage."""
-    scene.effects = dataclasses.replace(scene.effects, pore_water=False)
-    for item in [*scene.boundaries, *scene.loads]:
-        item.drainage = Drainage()
-    scene.probes = [p for p in scene.probes if p.field != "pore_pressure"]
-    scene.output.fields = [f for f in scene.output.fields if f not in ("pore_pressure", "darcy_velocity")]
-    scene.validate()
-    return scene
 
 
 @pytest.fixture(scope="module")
