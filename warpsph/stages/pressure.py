@@ -84,40 +84,49 @@ def _kernels(spec: Spec):
                      plane_kind: wp.array(dtype=wp.int32), drainage: wp.array(dtype=wp.int32),
                      drained_lo: wp.array(dtype=vec3), drained_hi: wp.array(dtype=vec3),
                      drained_pressure: wp.array(dtype=f64), head: wp.array(dtype=f64), inflow: wp.array(dtype=f64),
-                     water_density: f64, k: f64, gravity: vec3, water_table: f64, homogeneous: int,
-                     momentum: int):  # fmt: skip
-        """(s, c) with p_ghost = s p_source + c for ghost g (c = 0 when ``homogeneous``); each plane
-        drains (odd parity) where the initial position ``where`` lies in its drained extent.
+                     water_density: f64, k: f64, gravity: vec3, water_table: f64, homogeneous: int):  # fmt: skip
+        """(s, c, s_m, c_m) with p_ghost = s p_source + c for ghost g (c = 0 when ``homogeneous``);
+        each plane drains (odd parity) where the initial position ``where`` lies in its drained extent.
 
-        With ``momentum`` the parity is the one of the pressure *increment* in the velocity
-        correction: odd also at impermeable traction planes, whose total traction t̄ = σ′n − p n is
-        prescribed, so that the correction −(Δt/ρ)∇δp leaves it unchanged (the effective stress takes
-        up δp in the next predictor); water still does not cross them (Darcy parity even)."""
+        (s_m, c_m) is the parity of the pressure *increment* in the velocity correction: odd also at
+        impermeable traction planes, whose total traction t̄ = σ′n − p n is prescribed, so that the
+        correction −(Δt/ρ)∇δp leaves it unchanged (the effective stress takes up δp in the next
+        predictor); water still does not cross them ((s, c) even)."""
         x = q[source[g]]
         s = f64(1.0)
         c = zero
+        s_m = f64(1.0)
+        c_m = zero
         planes = chain[g]
         for i in range(3):
             p = planes[i]
             if p >= 0:
                 m = plane_axis[p]
                 kind = drainage_here(p, where, m, drainage, drained_lo, drained_hi)
-                if momentum == 1 and kind != 1 and plane_kind[p] == PLANE_TRACTION:
+                traction = plane_kind[p] == PLANE_TRACTION
+                if kind == 1:
                     s = -s
                     c = -c
-                elif kind == 1:
-                    s = -s
-                    c = -c
+                    s_m = -s_m
+                    c_m = -c_m
                     if homogeneous == 0:
                         xp = x
                         xp[m] = plane_position[p]
-                        c += f64(2.0) * plane_excess(p, xp, water_density, gravity, water_table, drained_pressure,
-                                                     head)  # fmt: skip
-                elif kind == 2 and homogeneous == 0 and k > zero:
-                    depth = f64(plane_sign[p] * (plane_position[p] - x[m]))
-                    c += f64(2.0) * depth * inflow[p] / k
+                        excess = f64(2.0) * plane_excess(p, xp, water_density, gravity, water_table,
+                                                         drained_pressure, head)  # fmt: skip
+                        c += excess
+                        c_m += excess
+                else:
+                    if kind == 2 and homogeneous == 0 and k > zero:
+                        depth = f64(plane_sign[p] * (plane_position[p] - x[m]))
+                        c += f64(2.0) * depth * inflow[p] / k
+                        if not traction:
+                            c_m += f64(2.0) * depth * inflow[p] / k
+                    if traction:
+                        s_m = -s_m
+                        c_m = -c_m
                 x[m] = real(2.0) * plane_position[p] - x[m]
-        return s, c
+        return s, c, s_m, c_m
 
     @wp.kernel(enable_backward=False, module="unique")
     def pressure_ghosts(
@@ -132,9 +141,13 @@ def _kernels(spec: Spec):
         g = wp.tid()
         src = source[g]
         mat = material[src]
-        s, c = ghost_affine(g, source, chain, q, origin[src], plane_axis, plane_position, plane_sign, plane_kind,
-                            drainage, drained_lo, drained_hi, drained_pressure, head, inflow, water_density[mat],
-                            permeability[mat], gravity, water_table, homogeneous, momentum)  # fmt: skip
+        s, c, s_m, c_m = ghost_affine(g, source, chain, q, origin[src], plane_axis, plane_position, plane_sign,
+                                      plane_kind, drainage, drained_lo, drained_hi, drained_pressure, head, inflow,
+                                      water_density[mat], permeability[mat], gravity, water_table,
+                                      homogeneous)  # fmt: skip
+        if momentum == 1:
+            s = s_m
+            c = c_m
         p[n_owned + g] = s * p[src] + c
 
     @wp.kernel(enable_backward=False, module="unique")
@@ -297,14 +310,11 @@ def _kernels(spec: Spec):
                 col = ghost_source[g]
                 # a pair meeting across a plane drains by its midpoint, as its mirror pair does: the
                 # matrix stays symmetric where a drained extent ends
-                mid = real(0.5) * (origin[a] + origin[col])
-                s, cst = ghost_affine(g, ghost_source, ghost_chain, q, mid, plane_axis, plane_position, plane_sign,
-                                      plane_kind, drainage, drained_lo, drained_hi, drained_pressure, head, inflow,
-                                      water_density[mat_j], permeability[mat_j], gravity, water_table, 0, 0)  # fmt: skip
-                s_dt, cst_dt = ghost_affine(g, ghost_source, ghost_chain, q, mid, plane_axis, plane_position,
-                                            plane_sign, plane_kind, drainage, drained_lo, drained_hi, drained_pressure,
-                                            head, inflow, water_density[mat_j], permeability[mat_j], gravity,
-                                            water_table, 0, 1)  # fmt: skip
+                s, cst, s_dt, cst_dt = ghost_affine(g, ghost_source, ghost_chain, q,
+                                                    real(0.5) * (origin[a] + origin[col]), plane_axis,
+                                                    plane_position, plane_sign, plane_kind, drainage, drained_lo,
+                                                    drained_hi, drained_pressure, head, inflow, water_density[mat_j],
+                                                    permeability[mat_j], gravity, water_table, 0)  # fmt: skip
             w_k = w - w_dt
             b += w_dt * (p_old[a] - (s_dt * p_old[col] + cst_dt))  # −V ∇·((Δt/ρ)∇pⁿ)
             b += w_k * cst + w_dt * cst_dt
