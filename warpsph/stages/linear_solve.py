@@ -208,9 +208,10 @@ def update_rows(
 ):  # fmt: skip
     """α = (r·z)_(it−1) / (d·Ad)_it; x += α d, r −= α Ad, z = r/diag; table[it] += (r·z, r·r)."""
     a = wp.tid()
-    alpha = ratio(table[(it - 1) * COLUMNS + RZ], table[it * COLUMNS + DAD])
-    if table[it * COLUMNS + DAD] < f64(0.0):
-        alpha = f64(0.0)  # not positive definite: stand still, the host stops at its next check
+    dad = table[it * COLUMNS + DAD]
+    alpha = f64(0.0)  # d·Ad ≤ 0 (not positive definite, or d = 0): stand still, the host stops at its next check
+    if dad > f64(0.0):
+        alpha = table[(it - 1) * COLUMNS + RZ] / dad
     ra = f64(0.0)
     za = f64(0.0)
     if a < n:
@@ -336,9 +337,10 @@ class LinearSolver:
         padded = (self.n + TILE - 1) // TILE * TILE
         wp.launch(kernel, dim=padded, inputs=inputs, device=self.device, block_dim=TILE)
 
-    def _row(self, it: int):
-        """Row ``it`` of the scalar table (a host read: waits for the kernels before it)."""
-        return self.table[it * COLUMNS : (it + 1) * COLUMNS].numpy()
+    def _rows_read(self, first: int, end: int):
+        """Rows [first, end) of the scalar table as an (end − first, COLUMNS) array (one host read:
+        it waits for the kernels before it)."""
+        return self.table[first * COLUMNS : end * COLUMNS].numpy().reshape(-1, COLUMNS)
 
     def _due(self, it: int) -> bool:
         """Whether iteration ``it`` reads the scalar table to test convergence."""
@@ -350,20 +352,23 @@ class LinearSolver:
         s, n, table = self.settings, self.n, self.table
         table.zero_()
         self._rows(residual_rows, [n, *matrix, x, rhs, r, z, d, table])
-        rz, rr, bb = (float(v) for v in self._row(0)[:3])
+        _, rr, bb = (float(v) for v in self._rows_read(0, 1)[0, :3])
         target = s.tolerance**2 * max(bb, 1e-300)
         if rr <= target:
             return 0, math.sqrt(rr / max(bb, 1e-300))
+        checked = 0  # iterations whose scalars the host has read
         for it in range(1, s.max_iterations + 1):
             if it > 1:
                 launch(direction_from_table, n, [it - 1, z, d, table], self.device)
             self._rows(matvec_rows, [n, it, *matrix, d, Ad, table])
             self._rows(update_rows, [n, it, d, Ad, matrix[3], x, r, z, table])
             if self._due(it):
-                rr = float(self._row(it)[RR])
+                rows = self._rows_read(checked + 1, it + 1)  # one host read for the iterations since the last
+                checked = it
+                rr = float(rows[-1, RR])
                 if rr <= target:
                     return it, math.sqrt(rr / max(bb, 1e-300))
-                if not (table.numpy().reshape(-1, COLUMNS)[1 : it + 1, DAD] > 0.0).all():
+                if not (rows[:, DAD] > 0.0).all():
                     break  # not positive definite (or converged to zero direction): as the blocked CG
         return s.max_iterations, math.sqrt(rr / max(bb, 1e-300))
 
@@ -375,7 +380,7 @@ class LinearSolver:
         for it in range(s.max_iterations + 1):
             self._rows(jacobi_rows, [n, it, f64(s.jacobi_weight), *matrix, current, rhs, nxt, table])
             if it == 0 or self._due(it):
-                rr, bb = (float(v) for v in self._row(it)[RR : BB + 1])
+                rr, bb = (float(v) for v in self._rows_read(it, it + 1)[0, RR : BB + 1])
                 rel = math.sqrt(rr / max(bb, 1e-300))
                 if rel <= s.tolerance:
                     break  # ``current`` met the tolerance
