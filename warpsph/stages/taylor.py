@@ -237,7 +237,6 @@ def taylor_kernels(spec: Spec):
         shifting_coefficient: real,
         shift: wp.array(dtype=vec3),
         own_velocity: int,
-        free_when_unfitted: int,
     ):
         a = first + wp.tid()
         x = q[a]
@@ -247,7 +246,7 @@ def taylor_kernels(spec: Spec):
                                             virt_fit_minv, virt_fit_e, real_fit_lambda[a] < surface_threshold,
                                             virt_p)  # fmt: skip
         free = offsets[a + 1] == offsets[a]
-        if free_when_unfitted != 0 and uncorrected(real_fit_c[a], real_fit_minv[a]):
+        if own_velocity != 0 and uncorrected(real_fit_c[a], real_fit_minv[a]):
             free = True
         if free:
             # no virtual point near (or, moving with its own velocity, too few to fit a linear
