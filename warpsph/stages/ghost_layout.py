@@ -181,15 +181,18 @@ class GhostLayout:
         self._largest = wp.zeros(1, dtype=model.spec.real, device=model.device)
         # symmetry planes are not walls: material only may not cross them (joining them at 0.8 Δx
         # piled particles onto the plane and onto a corner: measured, a collapsing column's centre)
-        contact = [0.0 if b.kind == "symmetry" else CONTACT * model.dx for b in model.scene.boundaries]
-        contact += [0.0] * (model.plane_count - len(contact))
-        self.plane_contact = wp.array(contact or [0.0], dtype=model.spec.real, device=model.device)
-        friction = [math.tan(math.radians(b.friction_angle)) for b in model.scene.boundaries]
-        friction += [0.0] * (model.plane_count - len(friction))
-        self.plane_friction = wp.array(friction or [0.0], dtype=model.spec.real, device=model.device)
+        boundaries = model.scene.boundaries
+        self.plane_contact = self._per_plane([0.0 if b.kind == "symmetry" else CONTACT * model.dx for b in boundaries])
+        self.plane_friction = self._per_plane([math.tan(math.radians(b.friction_angle)) for b in boundaries])
         """(P,) Coulomb friction coefficient μ = tan φ_b of each plane [-]."""
         self.replans = 0
         """Number of re-plans so far [-]."""
+
+    def _per_plane(self, boundary_values: list) -> wp.array:
+        """(P,) array of a value per boundary record's plane, 0 on the planes of loads."""
+        m = self.model
+        values = boundary_values + [0.0] * (m.plane_count - len(boundary_values))
+        return wp.array(values or [0.0], dtype=m.spec.real, device=m.device)
 
     def keep_inside(self, q: wp.array, v: wp.array, stress, density, dt) -> None:
         """Owned real particles that reach a wall (or cross any fixed or slip plane) join it."""
