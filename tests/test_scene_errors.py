@@ -248,6 +248,11 @@ BAD_CASES = {
                                                           'particle_velocity = "mean"'), "simulation.particle_velocity"),
     "negative particle_shifting": (edit("end_time = 0.5", "end_time = 0.5\nlarge_deformation = true\n"
                                                            "particle_shifting = -1"), "simulation.particle_shifting"),
+    "stress_filter above 0.5": (edit("end_time = 0.5", "end_time = 0.5\nstress_filter = 0.8"),
+                                "simulation.stress_filter"),
+    "stress filter with the collocated scheme": (edit('scheme = "two_set"', 'scheme = "collocated"\n'
+                                                                        'stress_filter = 0.01'),
+                                                 "simulation.stress_filter"),
     "particle shifting without large deformation": (edit("end_time = 0.5", "end_time = 0.5\nparticle_shifting = 5"),
                                                     "simulation"),
     "floor friction angle 90": (chain(edit("end_time = 0.5", "end_time = 0.5\nlarge_deformation = true"),

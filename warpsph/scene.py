@@ -100,6 +100,9 @@ class Simulation:
     """Floating-point type of the particle fields: "float64" or "float32"."""
     artificial_viscosity: float = 0.0
     """Monaghan artificial viscosity coefficient α (0 disables it), in both schemes."""
+    stress_filter: float = 0.0
+    """Two-set scheme: fraction β [-] of the real particles' stress that the virtual points do not see
+    (an odd-even stress mode) removed each step (0 disables it; docs/method.md, "Stress filter")."""
     velocity_limit: float = math.inf
     """Run guard: the run stops if any particle speed exceeds this [m/s]."""
     free_surface_threshold: float = 0.75

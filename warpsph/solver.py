@@ -178,7 +178,7 @@ class Solver:
                 m.material_wave_speed, so.particle_q, so.particle_v, so.particle_stress, so.particle_density,
                 self.virtual_p, self._water_density, si.particle_plastic_strain, m.material_plasticity,
                 so.particle_plastic_strain, int(self.shifting), real(m.scene.simulation.particle_shifting), self.real_shift,
-                own], m.device)  # fmt: skip
+                own, real(m.scene.simulation.stress_filter)], m.device)  # fmt: skip
 
     @property
     def _water_density(self):

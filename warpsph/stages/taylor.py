@@ -23,7 +23,9 @@ fitted at them or, with ``simulation.particle_velocity = "own"``, with their own
 a particle whose fit falls back to Shepard is in free flight); with particle shifting a real particle
 also moves by its shift and takes its fields there (:mod:`warpsph.stages.shifting`); densities
 follow continuity. Both use the configuration at tⁿ. Optional Monaghan
-artificial viscosity acts between real particles and virtual points in the full step.
+artificial viscosity acts between real particles and virtual points in the full step, and the
+optional stress filter removes the part of a real particle's stress its virtual neighbours do not
+see (an odd-even null mode of the real → virtual fit).
 """
 
 import functools
@@ -237,6 +239,7 @@ def taylor_kernels(spec: Spec):
         shifting_coefficient: real,
         shift: wp.array(dtype=vec3),
         own_velocity: int,
+        stress_filter: real,
     ):
         a = first + wp.tid()
         x = q[a]
@@ -306,6 +309,10 @@ def taylor_kernels(spec: Spec):
                 d_s += (virt_mass[i] / virt_density[i] * wp.dot(phi_i, dx)) * virt_stress_half[i]
             d_s -= wp.dot(real_fit_e[a], dx) * s_half
         v_out[a] = v[a] + dt * (div / rho + body_force + visc) + d_v
+        if stress_filter > zero and not free:
+            # the part of the particle's stress the virtual points do not see: its own mid-step
+            # value against the virtual points' Φ^{n+½} fitted back at it
+            s_new -= stress_filter * (half * (s + s_new) - s_half)
         stress_out[a] = s_new + d_s
         if own_velocity != 0:
             # the particle moves with its own velocity, the mean of vⁿ and vⁿ⁺¹ (the shift's
