@@ -7,7 +7,10 @@
 Both are run for four consolidation times H²/c_v (the transient has decayed to e^(−π²) ≈ 5e-5).
 The skeleton, loaded suddenly by the seepage force, keeps ringing elastically (nothing damps it
 but the scheme), and the ringing feeds ∇·v into the pressure: near the inflow face that leaves an
-error of about 1 % (measured 1.1 %), hence a 2 % tolerance there and 1 % for the ponded column.
+error of about 1 % (measured 1.1 %), hence a 2 % tolerance there. The ponded column reaches its
+hydrostatic state to 0.02 Pa of 24.5 kPa (measured): 1e-4 is asked. (Before the drained rows of the
+pressure matrix were scaled like the others, the drained head outweighed every other right-hand
+side, the solve met its tolerance without iterating and the pressure froze 65-350 Pa off.)
 """
 
 import numpy as np
@@ -51,7 +54,7 @@ def test_drained_head_above_the_surface():
     p = host_fields(model, state)["pore_pressure"]
     expected = 1000.0 * g * (head - model.particle_x0[:, 1])
     print(f"\nponded column: max error {np.max(np.abs(p - expected)):.3g} Pa of {expected.max():.0f} Pa")
-    assert np.max(np.abs(p - expected)) < 0.01 * expected.max()
+    assert np.max(np.abs(p - expected)) < 1e-4 * expected.max()
 
 
 def test_steady_inflow_through_the_base():
