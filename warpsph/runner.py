@@ -234,6 +234,12 @@ class Run:
     def _check(self) -> None:
         bad = self.guard.first_bad(self.state)
         if bad is None:
+            point = self.guard.first_bad_virtual(self.state)
+            if point is not None:
+                q = self.state.virtual_q.numpy()[point]
+                density = float(self.state.virtual_density.numpy()[point])
+                self._unstable(f"virtual point {point} at {np.array2string(q, precision=4)} m has the density "
+                               f"{density:.4g} kg/m³")  # fmt: skip
             return
         f = host_fields(self.model, self.state)
         broken = [f"a non-finite {name.replace('_', ' ')}" for name in ("position", "velocity", "stress", "density",
@@ -245,9 +251,11 @@ class Run:
         else:
             what = (f"moves at {float(np.linalg.norm(f['velocity'][bad])):.4g} m/s, beyond simulation.velocity_limit "
                     f"= {self.scene.simulation.velocity_limit:g} m/s")  # fmt: skip
+        self._unstable(f"particle {bad} at {np.array2string(f['position'][bad], precision=4)} m {what}")
+
+    def _unstable(self, what: str):
         raise SimulationError(
-            f"unstable at step {self.step_index}, t = {self.time:.6g} s: particle {bad} at "
-            f"{np.array2string(f['position'][bad], precision=4)} m {what}; the last good checkpoint "
+            f"unstable at step {self.step_index}, t = {self.time:.6g} s: {what}; the last good checkpoint "
             f"(step {self.checkpoint_step}) and the frames written are kept in {self.out}")
 
     def run(self, progress=None) -> RunSummary:

@@ -21,11 +21,12 @@ import numpy as np
 import pytest
 from stability_tools import SCENES, SCHEMES, march
 
+from warpsph.builder import build
 from warpsph.errors import SimulationError
 from warpsph.io import load_checkpoint, load_results
 from warpsph.runner import Run
 from warpsph.scene_toml import load_scene
-from warpsph.stages.guard import LARGEST_SPEED
+from warpsph.stages.guard import LARGEST_SPEED, Guard
 
 
 def wave_column(scheme: str):
@@ -36,14 +37,19 @@ def wave_column(scheme: str):
 
 def first_bad_step(scene, limit: float, steps: int) -> int | None:
     """Replay ``scene`` in memory: the first step after which a particle's position, velocity, stress or
-    density is not finite, its density is not positive or its speed exceeds ``limit`` [m/s]."""
+    density is not finite, its density is not positive or its speed exceeds ``limit`` [m/s], or a
+    virtual point's position or density is not finite or its density not positive."""
     found = []
 
     def observe(k, model, state):
         n = model.particle_count
         fields = [state.particle_q.numpy()[:n], state.particle_v.numpy()[:n], state.particle_stress.numpy()[:n],
                   state.particle_density.numpy()[:n]]
-        bad = (not all(np.all(np.isfinite(f)) for f in fields) or np.any(fields[3] <= 0.0)
+        densities = [fields[3]]
+        if state.virtual_q is not None:
+            fields += [state.virtual_q.numpy()[: model.virtual_count], state.virtual_density.numpy()[: model.virtual_count]]
+            densities.append(fields[5])
+        bad = (not all(np.all(np.isfinite(f)) for f in fields) or any(np.any(d <= 0.0) for d in densities)
                or np.linalg.norm(fields[1], axis=1).max() > limit)  # fmt: skip
         if bad and k > 0:
             found.append(k)
@@ -51,6 +57,17 @@ def first_bad_step(scene, limit: float, steps: int) -> int | None:
 
     march(scene, steps, observe)
     return found[0] if found else None
+
+
+def test_a_bad_virtual_point_is_found():
+    """The guard checks the virtual points too: a blow-up can reach their densities first."""
+    model, state = build(wave_column("two_set"))
+    guard = Guard(model, LARGEST_SPEED)
+    assert guard.first_bad(state) is None and guard.first_bad_virtual(state) is None
+    density = state.virtual_density.numpy()
+    density[[7, 9]] = (np.nan, -1.0)
+    state.virtual_density.assign(density)
+    assert guard.first_bad(state) is None and guard.first_bad_virtual(state) == 7
 
 
 def step_in(message: str) -> int:
@@ -67,7 +84,8 @@ def test_courant_5_stops_within_a_step_and_keeps_its_output(scheme, tmp_path):
     message = str(info.value)
     print(f"\n{scheme}, C = 5: {message}")
     step = step_in(message)
-    assert "\n" not in message and f"t = {step * scene.time_step:.6g} s" in message and "particle " in message
+    assert "\n" not in message and f"t = {step * scene.time_step:.6g} s" in message
+    assert "particle " in message or "virtual point " in message
     assert step == first_bad_step(scene, LARGEST_SPEED, step + 1)  # the guard's cap without a limit
     checkpoint = load_checkpoint(tmp_path / "checkpoint.h5")
     assert checkpoint.step < step and f"checkpoint (step {checkpoint.step})" in message

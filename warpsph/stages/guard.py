@@ -1,5 +1,6 @@
 """Run guard: finds the first particle whose fields (position, velocity, stress, density and, with pore
-water, pore pressure) are not finite, whose density is not positive or whose speed is too high."""
+water, pore pressure) are not finite, whose density is not positive or whose speed is too high, and
+the first virtual point whose position or density is not finite or whose density is not positive."""
 
 import functools
 
@@ -38,11 +39,18 @@ def _kernel(spec: Spec):
         if not ok or wp.length(v[a]) > speed_limit:
             wp.atomic_min(first_bad, 0, a)
 
-    return find_bad
+    @wp.kernel(enable_backward=False, module="unique")
+    def find_bad_virtual(q: wp.array(dtype=vec3), density: wp.array(dtype=real), first_bad: wp.array(dtype=wp.int32)):
+        i = wp.tid()
+        if not (wp.isfinite(q[i]) and wp.isfinite(density[i]) and density[i] > real(0.0)):
+            wp.atomic_min(first_bad, 0, i)
+
+    return find_bad, find_bad_virtual
 
 
 class Guard:
-    """``first_bad(state)`` returns the lowest index of a bad owned particle, or None."""
+    """``first_bad(state)`` returns the lowest index of a bad owned particle, or None;
+    ``first_bad_virtual(state)`` that of a bad owned virtual point (two-set scheme), or None."""
 
     def __init__(self, model: Model, speed_limit: float):
         self.model = model
@@ -52,9 +60,20 @@ class Guard:
     def first_bad(self, state: State) -> int | None:
         m = self.model
         self.flag.fill_(NO_PARTICLE)
-        launch(_kernel(m.spec), m.particle_count,
+        launch(_kernel(m.spec)[0], m.particle_count,
                [state.particle_q, state.particle_v, state.particle_stress, state.particle_density,
                 state.particle_pore_pressure, m.spec.real(self.speed_limit), self.flag],
                m.device)  # fmt: skip
+        return self._read()
+
+    def first_bad_virtual(self, state: State) -> int | None:
+        m = self.model
+        if state.virtual_q is None:
+            return None
+        self.flag.fill_(NO_PARTICLE)
+        launch(_kernel(m.spec)[1], m.virtual_count, [state.virtual_q, state.virtual_density, self.flag], m.device)
+        return self._read()
+
+    def _read(self) -> int | None:
         bad = int(self.flag.numpy()[0])
         return None if bad == NO_PARTICLE else bad
