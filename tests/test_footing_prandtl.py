@@ -1,10 +1,13 @@
 """Prandtl's strip footing on weightless von Mises soil (scenes/footing_prandtl.toml).
 
 The issue's criterion: the plateau of footing_pressure within 5 % of (2 + π) c_u = 51.4 kPa at the
-default resolution. Measured (smooth footing): 4.62 c_u at Δx = 0.05 m (10 % low) and 4.12 c_u at
-Δx = 0.1 m (20 % low): converging from below, not yet within 5 %, so the slow test is an expected failure
-until the footing edge is resolved better (scene comments, docs/method.md "Known limits").
-tests/test_scenes_run.py runs the shipped scene for a few steps in the default suite.
+default resolution. Measured (smooth footing, stress filter β = 0.02, plateau at 25–40 mm settlement):
+4.88 c_u at Δx = 0.05 m (5.0 % low, just outside the criterion) and 3.97 c_u at Δx = 0.1 m (23 % low):
+converging from below, so the 5 % test is an expected failure. Under the footing centre the soil
+carries Prandtl's stress (σ_yy = 5.2–5.3 c_u, σ_xx = 3.1 c_u at Δx = 0.05 m); the force is short
+where the pressure falls off over the last two to three particles before the edge (scene comments,
+docs/method.md "Known limits"). tests/test_scenes_run.py runs the shipped scene for a few steps in
+the default suite.
 """
 
 import math
@@ -16,15 +19,17 @@ import pytest
 from warpsph.io import load_results
 from warpsph.runner import Run
 from warpsph.scene_toml import load_scene
+from warpsph.study.metrics import FOOTING_WINDOW
 
 COHESION = 10e3
 SCENE = Path(__file__).resolve().parent.parent / "scenes" / "footing_prandtl.toml"
 PRANDTL = (2.0 + math.pi) * COHESION
 
 
-WINDOWS = {0.05: (0.018, 0.025), 0.1: (0.012, 0.016)}
-"""Settlement windows [m] of the plateau: from where the pressure levels off to before the run
-breaks down (about 30 mm at Δx = 0.05 m and 17 mm at 0.1 m, scene comments)."""
+
+END_TIME = {0.025: 1.55}
+"""Shorter runs [s]: at Δx = 0.025 m the footing edge's corner mode (its edge particles and the free
+surface beside them) blows the run up at 1.66 s (31 mm); docs/method.md, "Known limits"."""
 
 
 @pytest.fixture(scope="module")
@@ -43,11 +48,11 @@ def plateaus(tmp_path_factory):
             for region in (scene.loads[0].region, probes["footing_displacement"].region):  # 3/4 dx above the soil
                 region.min = (0.0, 3.0 + 0.75 * dx, 0.0)
             out = tmp_path_factory.mktemp(f"footing_{dx}")
-            Run(scene, out, end_time=0.85 if dx > 0.05 else None).run()
+            Run(scene, out, end_time=END_TIME.get(dx)).run()
             results = load_results(out / "results.h5")
             _, pressure = results.series("footing_pressure")
             _, settlement = results.series("footing_displacement")
-            lo, hi = WINDOWS[dx]
+            lo, hi = FOOTING_WINDOW  # 25-40 mm; the run at 0.025 m stops at 28.6 mm
             found[dx] = float(np.mean(pressure[(settlement >= lo) & (settlement <= hi)]))
             print(f"\ndx = {dx} m: footing plateau {found[dx] / 1e3:.2f} kPa = {found[dx] / COHESION:.3f} c_u "
                   f"({100 * (found[dx] / PRANDTL - 1):+.1f} % against (2 + pi) c_u)")
@@ -57,13 +62,15 @@ def plateaus(tmp_path_factory):
 
 
 @pytest.mark.slow
-@pytest.mark.xfail(strict=True, reason="plateau 4.62 c_u at the default dx = 0.05 m, 10 % below (2 + pi) c_u")
+@pytest.mark.xfail(strict=True, reason="plateau 4.88 c_u at the default dx = 0.05 m (25-40 mm), 5.0 % below (2 + pi) c_u")
 def test_footing_plateau_is_prandtl(plateaus):
     assert plateaus(0.05) == pytest.approx(PRANDTL, rel=0.05)
 
 
 @pytest.mark.slow
 def test_footing_plateau_under_refinement(plateaus):
-    """Halving Δx moves the plateau toward (2 + π) c_u from below."""
-    coarse, fine = plateaus(0.1), plateaus(0.05)
-    assert coarse < fine < 1.05 * PRANDTL
+    """Halving Δx twice moves the plateau toward (2 + π) c_u from below, to within 5 % at Δx = 0.025 m
+    (measured: 3.97, 4.88 and 5.04 c_u at Δx = 0.1, 0.05 and 0.025 m; about 10 min on 2 cores)."""
+    coarse, fine, finest = plateaus(0.1), plateaus(0.05), plateaus(0.025)
+    assert coarse < fine < finest < PRANDTL
+    assert finest == pytest.approx(PRANDTL, rel=0.05)

@@ -90,20 +90,18 @@ def test_bad_study_file_is_one_line_and_exit_2(tmp_path, scenes_dir, capsys, tex
     assert len(err) == 1 and key in err[0] and str(path) in err[0], err
 
 
-def test_footing_window_and_plateau_on_a_synthetic_series():
-    """The settlement window follows Δx (the test's windows at 0.05 and 0.1 m); the plateau is the
-    mean of the pressure inside it, and the error compares it with (2 + π) c_u."""
-    assert metrics.footing_window(0.05) == pytest.approx((0.018, 0.024))
-    assert metrics.footing_window(0.1) == pytest.approx((0.012, 0.015))
-    assert metrics.footing_window(0.075) == pytest.approx((0.015, 0.0195))
-    settlement = np.linspace(0.0, 0.03, 300)
-    inside = (settlement >= 0.012) & (settlement <= 0.015)
+def test_footing_plateau_on_a_synthetic_series():
+    """The plateau is the mean of the pressure inside the settlement window, and the error compares it
+    with (2 + π) c_u."""
+    assert metrics.FOOTING_WINDOW == pytest.approx((0.025, 0.040))
+    settlement = np.linspace(0.0, 0.06, 600)
+    inside = (settlement >= 0.025) & (settlement <= 0.040)
     pressure = np.where(inside, 46.0e3, 1.0e6)  # wrong outside the window
     pressure[inside] += np.resize([1e3, -1e3], inside.sum())  # ± 1 kPa, an even count: mean 46 kPa
-    mean, spread, count = metrics.footing_plateau(settlement, pressure, metrics.footing_window(0.1))
-    assert count == inside.sum() == 30 and mean == pytest.approx(46.0e3) and spread == pytest.approx(1e3)
+    mean, spread, count = metrics.footing_plateau(settlement, pressure, metrics.FOOTING_WINDOW)
+    assert count == inside.sum() == 150 and mean == pytest.approx(46.0e3) and spread == pytest.approx(1e3)
     assert abs(mean / ((2 + math.pi) * 10e3) - 1) == pytest.approx(0.1053, abs=1e-4)
-    assert metrics.footing_plateau(settlement[:100], pressure[:100], (0.012, 0.015))[2] == 0  # never reached
+    assert metrics.footing_plateau(settlement[:200], pressure[:200], metrics.FOOTING_WINDOW)[2] == 0  # never reached
 
 
 def test_footing_metric_on_a_short_coarse_run(monkeypatch):
@@ -121,7 +119,7 @@ def test_footing_metric_on_a_short_coarse_run(monkeypatch):
     assert metrics.footing_scene(load_scene(scene_path, {"simulation.dx": 0.075})).probes[0].scale == pytest.approx(
         1 / 0.4875)  # x = 0 ... 0.45  # fmt: skip
     assert scene.probes[0].scale == pytest.approx(1 / 0.525)  # the scene itself is left alone
-    monkeypatch.setattr(metrics, "FOOTING_WINDOWS", {0.05: (0.001, 0.002), 0.1: (0.001, 0.002)})
+    monkeypatch.setattr(metrics, "FOOTING_WINDOW", (0.001, 0.002))
     assert metric.end_time(scene) == pytest.approx(0.2)  # the end of the ramp: v T / 2 = 2 mm
     measured = metric.measure(scene, "cpu")
     settlement, pressure = (np.array(v) for v in zip(*measured.run.samples))

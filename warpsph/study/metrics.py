@@ -172,22 +172,13 @@ register(Metric(
 # -------------------------------------------------------------------------------- Prandtl footing
 FOOTING_PRESSURE, FOOTING_SETTLEMENT = "footing_pressure", "footing_displacement"
 """Probes of the footing scene: the base reaction over B/2 [Pa] and the piston settlement [m]."""
-FOOTING_WINDOWS = {0.05: (0.018, 0.024), 0.1: (0.012, 0.015)}
-"""Settlement windows [m] of the plateau measured by tests/test_footing_prandtl.py (the pressure has
-levelled off; the runs break down at about 30 mm at Δx = 0.05 m and 17 mm at 0.1 m), their upper
-ends where those runs stop (end_time 1.3 s and 0.85 s). Other spacings interpolate linearly in Δx."""
+FOOTING_WINDOW = (0.025, 0.040)
+"""Settlement window [m] of the plateau (as tests/test_footing_prandtl.py): the pressure has levelled
+off by 25 mm, and the runs at Δx = 0.05 and 0.1 m hold past 38 mm (docs/method.md, "Known limits")."""
 PISTON_GAP = 0.75
 """The piston region starts this many spacings above the ground (scenes/footing_prandtl.toml)."""
 PROBE_EVERY = 10
 """Steps between samples of the footing probes (the scene's output.probe_every)."""
-
-
-def footing_window(dx: float) -> tuple[float, float]:
-    """Settlement window [m] of the plateau at spacing ``dx``: :data:`FOOTING_WINDOWS` interpolated
-    linearly in Δx, extrapolated to finer spacings; coarser ones keep the coarsest window."""
-    (d0, (lo0, hi0)), (d1, (lo1, hi1)) = sorted(FOOTING_WINDOWS.items())
-    f = min((dx - d0) / (d1 - d0), 1.0)
-    return lo0 + f * (lo1 - lo0), hi0 + f * (hi1 - hi0)
 
 
 def footing_plateau(settlement, pressure, window: tuple[float, float]) -> tuple[float, float, int]:
@@ -257,7 +248,7 @@ def _footing_end(scene: Scene) -> float:
     _, _, load, _, _ = _footing(scene)
     speed = abs(load.velocity[1])
     ramp = load.time_function.duration if load.time_function.kind == "ramp" else 0.0
-    top = footing_window(scene.simulation.dx)[1]
+    top = FOOTING_WINDOW[1]
     if top < 0.5 * speed * ramp:  # still on the ramp: settlement v t² / (2 T)
         return math.sqrt(2.0 * ramp * top / speed)
     return 0.5 * ramp + top / speed
@@ -281,7 +272,7 @@ def _measure_footing(scene: Scene, device: str) -> Measurement:
     steps = int(math.ceil(_footing_end(scene) / scene.time_step - 1e-9))
     run = run_sampled(scene, [*range(PROBE_EVERY, steps, PROBE_EVERY), steps], sample, device)
     settlement, pressure = zip(*run.samples) if run.samples else ((), ())
-    window = footing_window(scene.simulation.dx)
+    window = FOOTING_WINDOW
     plateau, spread, count = footing_plateau(settlement, pressure, window)
     if count == 0:
         raise SimulationError(f"the footing settled {max(settlement, default=0.0) * 1e3:.3g} mm by the end, never "
@@ -298,5 +289,5 @@ register(Metric(
     description="Prandtl's rigid strip footing on weightless von Mises soil: the plateau of footing_pressure "
                 "against (2 + π) c_u",
     errors={"limit_load_error": "|plateau / ((2 + π) c_u) − 1|, plateau the mean of footing_pressure over the "
-                                "settlement window (metrics.footing_window)"},
+                                "settlement window (metrics.FOOTING_WINDOW)"},
     check=_check_footing, end_time=_footing_end, measure=_measure_footing))  # fmt: skip
