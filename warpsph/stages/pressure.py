@@ -41,17 +41,31 @@ ETA = 0.1
 """Morris regularisation η/h."""
 
 
-def laplacian_scale(kind: str, dim: int, ratio: float) -> float:
-    """Constant that makes the Morris Laplacian exact for |x|² on the lattice of spacing 1 (h = ratio)."""
+def _lattice_distances(dim: int, ratio: float) -> np.ndarray:
+    """Distances from a point of the lattice of spacing 1 to the others within the support 2h (h = ratio)."""
     span = int(math.ceil(2.0 * ratio))
     axes = [np.arange(-span, span + 1)] * dim
     grid = np.stack(np.meshgrid(*axes, indexing="ij"), -1).reshape(-1, dim).astype(float)
     r = np.linalg.norm(grid, axis=1)
-    r = r[(r > 0) & (r < 2.0 * ratio)]
+    return r[(r > 0) & (r < 2.0 * ratio)]
+
+
+def laplacian_scale(kind: str, dim: int, ratio: float) -> float:
+    """Constant that makes the Morris Laplacian exact for |x|² on the lattice of spacing 1 (h = ratio)."""
+    r = _lattice_distances(dim, ratio)
     # the operator is Σ V (κ_a + κ_b)(p_a − p_b)(x_ab·∇W)/(r² + η²); for κ = 1 and p = |x|²
     # (p_a − p_b = −r², x_ab·∇W = r W'(r)) it must give ∇²p = 2 dim
     morris = 2.0 * np.sum(-(r**2) * r * kernel_derivative(kind, dim, r, ratio) / (r**2 + (ETA * ratio) ** 2))
     return 2.0 * dim / morris
+
+
+def lattice_morris_sum(kind: str, dim: int, dx: float, ratio: float) -> float:
+    """Σ_b V_b m_ab [1/m²] over a full lattice neighbourhood (V_b = Δx^dim), m_ab the scaled Morris weight
+    −(x_ab·∇W_ab)/(r² + η²): what a particle's pair weights sum to when no neighbour is missing."""
+    r = _lattice_distances(dim, ratio) * dx
+    h = ratio * dx
+    weights = -r * kernel_derivative(kind, dim, r, h) / (r**2 + (ETA * h) ** 2)
+    return float(dx**dim * laplacian_scale(kind, dim, ratio) * np.sum(weights))
 
 
 @functools.cache
@@ -268,8 +282,8 @@ def _kernels(spec: Spec):
         drainage: wp.array(dtype=wp.int32), drained_lo: wp.array(dtype=vec3), drained_hi: wp.array(dtype=vec3),
         drained_pressure: wp.array(dtype=f64), head: wp.array(dtype=f64), inflow: wp.array(dtype=f64), water_table: f64,
         dirichlet: wp.array(dtype=wp.int32), value: wp.array(dtype=f64),
-        face_factor: wp.array(dtype=f64), weight: wp.array(dtype=f64), column: wp.array(dtype=wp.int32),
-        diag: wp.array(dtype=f64), rhs: wp.array(dtype=f64),
+        face_factor: wp.array(dtype=f64), momentum_image: wp.array(dtype=f64), weight: wp.array(dtype=f64),
+        column: wp.array(dtype=wp.int32), diag: wp.array(dtype=f64), rhs: wp.array(dtype=f64),
     ):  # fmt: skip
         a = first + wp.tid()
         if dirichlet[a] == 1:
@@ -315,6 +329,9 @@ def _kernels(spec: Spec):
                                                     plane_position, plane_sign, plane_kind, drainage, drained_lo,
                                                     drained_hi, drained_pressure, head, inflow, water_density[mat_j],
                                                     permeability[mat_j], gravity, water_table, 0)  # fmt: skip
+            # a neighbour on an impermeable traction plane is its own odd mirror in the Δt/ρ part
+            s_dt = s_dt * momentum_image[col]
+            cst_dt = cst_dt * momentum_image[col]
             w_k = w - w_dt
             b += w_dt * (p_old[a] - (s_dt * p_old[col] + cst_dt))  # −V ∇·((Δt/ρ)∇pⁿ)
             b += w_k * cst + w_dt * cst_dt
@@ -367,6 +384,7 @@ class PressureProjection:
         on, val = self._drained_plane_particles()
         self.on_drained = wp.array(on, dtype=wp.int32, device=dev)
         self.face_factor = wp.array(self._face_factor(), dtype=f64, device=dev)
+        self.momentum_image = wp.array(self._momentum_image(on), dtype=f64, device=dev)
         self.drained_value = wp.array(val, dtype=f64, device=dev)
         self.iterations: list[int] = []
         self.residuals: list[float] = []
@@ -387,6 +405,21 @@ class PressureProjection:
         for a, planes in zip(m.constraint_particle.numpy(), m.constraint_planes.numpy().reshape(-1, 3)):
             factor[a] = 0.5 ** int(np.count_nonzero(planes >= 0))
         return factor
+
+    def _momentum_image(self, on_drained: np.ndarray) -> np.ndarray:
+        """Weight of each owned particle as a neighbour in the Δt/ρ part of the matrix: 0 on an
+        impermeable traction plane, else 1. A particle on a plane stands for itself and its mirror
+        images, which coincide with it; the increment is odd across such a plane (``ghost_affine``),
+        so the images' mean is zero there. The particle's own row already sees its neighbours'
+        mirrors that way: without this the matrix was not symmetric (CG stalled on a loaded block,
+        docs/method.md). On a drained plane the particle is a Dirichlet row and keeps weight 1."""
+        m = self.model
+        image = np.ones(m.particle_count)
+        kinds = m.plane_kind.numpy()
+        for a, planes in zip(m.constraint_particle.numpy(), m.constraint_planes.numpy().reshape(-1, 3)):
+            if on_drained[a] == 0 and np.any(kinds[planes[planes >= 0]] == PLANE_TRACTION):
+                image[a] = 0.0
+        return image
 
     def _drained_plane_particles(self):
         """Owned particles lying on drained planes and their prescribed excess pressure (host)."""
@@ -469,7 +502,8 @@ class PressureProjection:
                 si.particle_density, m.particle_material, pw.material_permeability, pw.material_inv_biot,
                 pw.material_water_density, gravity, so.particle_v, self.div_v_star, self.p_old,
                 m.particle_ghost_source, m.particle_ghost_planes, *args, wp.float64(pw.water_table), self.dirichlet,
-                self.value, self.face_factor, self.weight, self.column, self.diag, self.rhs], dev)  # fmt: skip
+                self.value, self.face_factor, self.momentum_image, self.weight, self.column, self.diag,
+                self.rhs], dev)  # fmt: skip
         # solve into a copy of pⁿ (owned part), Dirichlet rows already at their values
         x = so.particle_pore_pressure
         wp.copy(x, self.p_old, count=n)
