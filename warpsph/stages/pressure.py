@@ -14,7 +14,9 @@ constant that makes it exact for quadratics on the initial lattice (the plain fo
 so the system is symmetric positive definite: Jacobi-preconditioned CG or weighted Jacobi solve it.
 Dirichlet rows (drained planes, drained free surface) are eliminated; ghosts enter with the
 pressure parity of their planes: even at impermeable planes, odd about the prescribed pressure at
-drained planes, and with the prescribed gradient ∂p/∂n = q̄/k at inflow planes.
+drained planes, and with the prescribed gradient ∂p/∂n = q̄/k at inflow planes. In the Δt/ρ part the
+increment is odd across impermeable traction planes, and an impermeable free surface gains the
+pairs its particles lack outside, with a zero increment (docs/method.md, Saturated soil).
 """
 
 import functools
@@ -282,8 +284,9 @@ def _kernels(spec: Spec):
         drainage: wp.array(dtype=wp.int32), drained_lo: wp.array(dtype=vec3), drained_hi: wp.array(dtype=vec3),
         drained_pressure: wp.array(dtype=f64), head: wp.array(dtype=f64), inflow: wp.array(dtype=f64), water_table: f64,
         dirichlet: wp.array(dtype=wp.int32), value: wp.array(dtype=f64),
-        face_factor: wp.array(dtype=f64), momentum_image: wp.array(dtype=f64), weight: wp.array(dtype=f64),
-        column: wp.array(dtype=wp.int32), diag: wp.array(dtype=f64), rhs: wp.array(dtype=f64),
+        face_factor: wp.array(dtype=f64), momentum_image: wp.array(dtype=f64), eigenvalue: wp.array(dtype=real),
+        exterior_threshold: real, lattice_sum: f64, weight: wp.array(dtype=f64), column: wp.array(dtype=wp.int32),
+        diag: wp.array(dtype=f64), rhs: wp.array(dtype=f64),
     ):  # fmt: skip
         a = first + wp.tid()
         if dirichlet[a] == 1:
@@ -301,11 +304,13 @@ def _kernels(spec: Spec):
         b = d * p_old[a] - vol_a * div_v_star[a] - vol_a * inv_biot[mat] * water_density[mat] * f64(
             wp.dot(gravity, v_star[a]))
         eta2 = f64(ETA * ETA) * f64(h * h)
+        present = zero  # Σ_b V_b m_ab over the neighbours there are [1/m²]
         for k in range(offsets[a], offsets[a + 1]):
             j = nbr[k]
             r = x - q[j]
             morris = -f64(wp.dot(r, grad_W(r, h))) / (f64(wp.dot(r, r)) + eta2) * scale
             vol_j = f64(mass[j] / density[j])
+            present += vol_j * morris
             mat_j = material[j]
             k_j = permeability[mat_j]
             k_pair = zero  # twice the harmonic mean: flux continuity across layers of contrasting k
@@ -341,6 +346,12 @@ def _kernels(spec: Spec):
                 coefficient = zero
             weight[k] = coefficient
             column[k] = col
+        if eigenvalue[a] < exterior_threshold and lattice_sum > present:
+            # impermeable free surface: the Δt/ρ part gains the pairs missing outside, with a zero
+            # increment there, as the predictor's surface term takes the pressure outside as zero
+            exterior = vol_a * f64(2.0) * dt_rho_a * (lattice_sum - present)
+            d += exterior
+            b += exterior * p_old[a]
         diag[a] = d
         rhs[a] = b
 
@@ -368,7 +379,12 @@ class PressureProjection:
         self.k = _kernels(m.spec)
         settings = m.scene.pressure
         self.settings = settings
-        self.scale = laplacian_scale(m.spec.kernel, m.spec.dim, m.scene.simulation.smoothing_ratio)
+        ratio = m.scene.simulation.smoothing_ratio
+        self.scale = laplacian_scale(m.spec.kernel, m.spec.dim, ratio)
+        self.lattice_sum = lattice_morris_sum(m.spec.kernel, m.spec.dim, m.dx, ratio)
+        impermeable_surface = settings.free_surface == "impermeable"
+        self.exterior_threshold = m.scene.simulation.free_surface_threshold if impermeable_surface else 0.0
+        """Correction eigenvalue below which a particle gains the exterior pairs (0: none do)."""
         self.div_v_star = wp.zeros(n, dtype=f64, device=dev)
         self.virtual_v_star = wp.zeros(nv, dtype=m.spec.vec3, device=dev)
         self.p_old = wp.zeros(ne, dtype=f64, device=dev)
@@ -502,7 +518,8 @@ class PressureProjection:
                 si.particle_density, m.particle_material, pw.material_permeability, pw.material_inv_biot,
                 pw.material_water_density, gravity, so.particle_v, self.div_v_star, self.p_old,
                 m.particle_ghost_source, m.particle_ghost_planes, *args, wp.float64(pw.water_table), self.dirichlet,
-                self.value, self.face_factor, self.momentum_image, self.weight, self.column, self.diag,
+                self.value, self.face_factor, self.momentum_image, rf.smallest_eigenvalue,
+                real(self.exterior_threshold), wp.float64(self.lattice_sum), self.weight, self.column, self.diag,
                 self.rhs], dev)  # fmt: skip
         # solve into a copy of pⁿ (owned part), Dirichlet rows already at their values
         x = so.particle_pore_pressure
