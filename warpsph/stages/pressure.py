@@ -14,7 +14,9 @@ constant that makes it exact for quadratics on the initial lattice (the plain fo
 so the system is symmetric positive definite: Jacobi-preconditioned CG or weighted Jacobi solve it.
 Dirichlet rows (drained planes, drained free surface) are eliminated; ghosts enter with the
 pressure parity of their planes: even at impermeable planes, odd about the prescribed pressure at
-drained planes, and with the prescribed gradient ∂p/∂n = q̄/k at inflow planes.
+drained planes, and with the prescribed gradient ∂p/∂n = q̄/k at inflow planes. In the Δt/ρ part the
+increment is odd across impermeable traction planes, and an impermeable free surface gains the
+pairs its particles lack outside, with a zero increment (docs/method.md, Saturated soil).
 """
 
 import functools
@@ -41,17 +43,31 @@ ETA = 0.1
 """Morris regularisation η/h."""
 
 
-def laplacian_scale(kind: str, dim: int, ratio: float) -> float:
-    """Constant that makes the Morris Laplacian exact for |x|² on the lattice of spacing 1 (h = ratio)."""
+def _lattice_distances(dim: int, ratio: float) -> np.ndarray:
+    """Distances from a point of the lattice of spacing 1 to the others within the support 2h (h = ratio)."""
     span = int(math.ceil(2.0 * ratio))
     axes = [np.arange(-span, span + 1)] * dim
     grid = np.stack(np.meshgrid(*axes, indexing="ij"), -1).reshape(-1, dim).astype(float)
     r = np.linalg.norm(grid, axis=1)
-    r = r[(r > 0) & (r < 2.0 * ratio)]
+    return r[(r > 0) & (r < 2.0 * ratio)]
+
+
+def laplacian_scale(kind: str, dim: int, ratio: float) -> float:
+    """Constant that makes the Morris Laplacian exact for |x|² on the lattice of spacing 1 (h = ratio)."""
+    r = _lattice_distances(dim, ratio)
     # the operator is Σ V (κ_a + κ_b)(p_a − p_b)(x_ab·∇W)/(r² + η²); for κ = 1 and p = |x|²
     # (p_a − p_b = −r², x_ab·∇W = r W'(r)) it must give ∇²p = 2 dim
     morris = 2.0 * np.sum(-(r**2) * r * kernel_derivative(kind, dim, r, ratio) / (r**2 + (ETA * ratio) ** 2))
     return 2.0 * dim / morris
+
+
+def lattice_morris_sum(kind: str, dim: int, dx: float, ratio: float) -> float:
+    """Σ_b V_b m_ab [1/m²] over a full lattice neighbourhood (V_b = Δx^dim), m_ab the scaled Morris weight
+    −(x_ab·∇W_ab)/(r² + η²): what a particle's pair weights sum to when no neighbour is missing."""
+    r = _lattice_distances(dim, ratio) * dx
+    h = ratio * dx
+    weights = -r * kernel_derivative(kind, dim, r, h) / (r**2 + (ETA * h) ** 2)
+    return float(dx**dim * laplacian_scale(kind, dim, ratio) * np.sum(weights))
 
 
 @functools.cache
@@ -268,7 +284,8 @@ def _kernels(spec: Spec):
         drainage: wp.array(dtype=wp.int32), drained_lo: wp.array(dtype=vec3), drained_hi: wp.array(dtype=vec3),
         drained_pressure: wp.array(dtype=f64), head: wp.array(dtype=f64), inflow: wp.array(dtype=f64), water_table: f64,
         dirichlet: wp.array(dtype=wp.int32), value: wp.array(dtype=f64),
-        face_factor: wp.array(dtype=f64), weight: wp.array(dtype=f64), column: wp.array(dtype=wp.int32),
+        face_factor: wp.array(dtype=f64), momentum_image: wp.array(dtype=f64), eigenvalue: wp.array(dtype=real),
+        exterior_threshold: real, lattice_sum: f64, weight: wp.array(dtype=f64), column: wp.array(dtype=wp.int32),
         diag: wp.array(dtype=f64), rhs: wp.array(dtype=f64),
     ):  # fmt: skip
         a = first + wp.tid()
@@ -281,11 +298,13 @@ def _kernels(spec: Spec):
         b = d * p_old[a] - vol_a * div_v_star[a] - vol_a * inv_biot[mat] * water_density[mat] * f64(
             wp.dot(gravity, v_star[a]))
         eta2 = f64(ETA * ETA) * f64(h * h)
+        present = zero  # Σ_b V_b m_ab over the neighbours there are [1/m²]
         for k in range(offsets[a], offsets[a + 1]):
             j = nbr[k]
             r = x - q[j]
             morris = -f64(wp.dot(r, grad_W(r, h))) / (f64(wp.dot(r, r)) + eta2) * scale
             vol_j = f64(mass[j] / density[j])
+            present += vol_j * morris
             mat_j = material[j]
             k_j = permeability[mat_j]
             k_pair = zero  # twice the harmonic mean: flux continuity across layers of contrasting k
@@ -309,6 +328,9 @@ def _kernels(spec: Spec):
                                                     plane_position, plane_sign, plane_kind, drainage, drained_lo,
                                                     drained_hi, drained_pressure, head, inflow, water_density[mat_j],
                                                     permeability[mat_j], gravity, water_table, 0)  # fmt: skip
+            # a neighbour on an impermeable traction plane is its own odd mirror in the Δt/ρ part
+            s_dt = s_dt * momentum_image[col]
+            cst_dt = cst_dt * momentum_image[col]
             w_k = w - w_dt
             b += w_dt * (p_old[a] - (s_dt * p_old[col] + cst_dt))  # −V ∇·((Δt/ρ)∇pⁿ)
             b += w_k * cst + w_dt * cst_dt
@@ -320,6 +342,12 @@ def _kernels(spec: Spec):
                 coefficient = zero
             weight[k] = coefficient
             column[k] = col
+        if eigenvalue[a] < exterior_threshold and lattice_sum > present:
+            # impermeable free surface: the Δt/ρ part gains the pairs missing outside, with a zero
+            # increment there, as the predictor's surface term takes the pressure outside as zero
+            exterior = vol_a * f64(2.0) * dt_rho_a * (lattice_sum - present)
+            d += exterior
+            b += exterior * p_old[a]
         if dirichlet[a] == 1:
             # p = p̄, scaled by the diagonal the row would have: with a unit diagonal a drained head of
             # kPa outweighed every other row's right-hand side in ‖b‖, the solve met its relative
@@ -354,7 +382,12 @@ class PressureProjection:
         self.k = _kernels(m.spec)
         settings = m.scene.pressure
         self.settings = settings
-        self.scale = laplacian_scale(m.spec.kernel, m.spec.dim, m.scene.simulation.smoothing_ratio)
+        ratio = m.scene.simulation.smoothing_ratio
+        self.scale = laplacian_scale(m.spec.kernel, m.spec.dim, ratio)
+        self.lattice_sum = lattice_morris_sum(m.spec.kernel, m.spec.dim, m.dx, ratio)
+        impermeable_surface = settings.free_surface == "impermeable"
+        self.exterior_threshold = m.scene.simulation.free_surface_threshold if impermeable_surface else 0.0
+        """Correction eigenvalue below which a particle gains the exterior pairs (0: none do)."""
         self.div_v_star = wp.zeros(n, dtype=f64, device=dev)
         self.virtual_v_star = wp.zeros(nv, dtype=m.spec.vec3, device=dev)
         self.p_old = wp.zeros(ne, dtype=f64, device=dev)
@@ -370,6 +403,7 @@ class PressureProjection:
         on, val = self._drained_plane_particles()
         self.on_drained = wp.array(on, dtype=wp.int32, device=dev)
         self.face_factor = wp.array(self._face_factor(), dtype=f64, device=dev)
+        self.momentum_image = wp.array(self._momentum_image(on), dtype=f64, device=dev)
         self.drained_value = wp.array(val, dtype=f64, device=dev)
         self.iterations: list[int] = []
         self.residuals: list[float] = []
@@ -390,6 +424,21 @@ class PressureProjection:
         for a, planes in zip(m.constraint_particle.numpy(), m.constraint_planes.numpy().reshape(-1, 3)):
             factor[a] = 0.5 ** int(np.count_nonzero(planes >= 0))
         return factor
+
+    def _momentum_image(self, on_drained: np.ndarray) -> np.ndarray:
+        """Weight of each owned particle as a neighbour in the Δt/ρ part of the matrix: 0 on an
+        impermeable traction plane, else 1. A particle on a plane stands for itself and its mirror
+        images, which coincide with it; the increment is odd across such a plane (``ghost_affine``),
+        so the images' mean is zero there. The particle's own row already sees its neighbours'
+        mirrors that way: without this the matrix was not symmetric (CG stalled on a loaded block,
+        docs/method.md). On a drained plane the particle is a Dirichlet row and keeps weight 1."""
+        m = self.model
+        image = np.ones(m.particle_count)
+        kinds = m.plane_kind.numpy()
+        for a, planes in zip(m.constraint_particle.numpy(), m.constraint_planes.numpy().reshape(-1, 3)):
+            if on_drained[a] == 0 and np.any(kinds[planes[planes >= 0]] == PLANE_TRACTION):
+                image[a] = 0.0
+        return image
 
     def _drained_plane_particles(self):
         """Owned particles lying on drained planes and their prescribed excess pressure (host)."""
@@ -472,7 +521,9 @@ class PressureProjection:
                 si.particle_density, m.particle_material, pw.material_permeability, pw.material_inv_biot,
                 pw.material_water_density, gravity, so.particle_v, self.div_v_star, self.p_old,
                 m.particle_ghost_source, m.particle_ghost_planes, *args, wp.float64(pw.water_table), self.dirichlet,
-                self.value, self.face_factor, self.weight, self.column, self.diag, self.rhs], dev)  # fmt: skip
+                self.value, self.face_factor, self.momentum_image, rf.smallest_eigenvalue,
+                real(self.exterior_threshold), wp.float64(self.lattice_sum), self.weight, self.column, self.diag,
+                self.rhs], dev)  # fmt: skip
         # solve into a copy of pⁿ (owned part), Dirichlet rows already at their values
         x = so.particle_pore_pressure
         wp.copy(x, self.p_old, count=n)
