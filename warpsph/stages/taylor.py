@@ -23,7 +23,7 @@ fitted at them or, with ``simulation.particle_velocity = "own"``, with their own
 a particle whose fit falls back to Shepard is in free flight); with particle shifting a real particle
 also moves by its shift and takes its fields there (:mod:`warpsph.stages.shifting`); densities
 follow continuity. The half step fits on the configuration at tⁿ; the full step's gradients of
-Φ^{n+½} (velocity gradient, divergence, surface normal) are mapped onto the step's midpoint
+Φ^{n+½} (velocity gradient, stress divergence, surface normal) are mapped onto the step's midpoint
 configuration x + (Δt/2) v^{n+½}, where Φ^{n+½} lives (docs/method.md). Optional Monaghan
 artificial viscosity acts between real particles and virtual points in the full step.
 """
@@ -90,8 +90,9 @@ def taylor_kernels(spec: Spec):
         """Velocity, effective stress, velocity gradient G[k,j] = ∂v_j/∂x_k, divergence of the total
         stress σ′ − pI and pore pressure fitted at x from the sources; in the surface band the
         divergence gains the weak normal-traction term. The sources' positions are those at tⁿ; the
-        gradients (G, the divergence, the surface normal and weights) are taken on the configuration
-        x + mid·v [s] where the fields live, through F⁻ᵀ = (I + mid G)⁻¹ (mid = 0: at tⁿ)."""
+        gradients of v and σ′ (G, the divergence, the surface normal and weights) are taken on the
+        configuration x + mid·v [s] where those fields live, through F⁻ᵀ = (I + mid G)⁻¹ (mid = 0: at
+        tⁿ); the pore pressure's stays at tⁿ (the full step's is the lagged pⁿ)."""
         v = vec3(zero, zero, zero)
         s = mat33(zero)
         G = mat33(zero)
@@ -127,7 +128,7 @@ def taylor_kernels(spec: Spec):
         div = (ds0 - e[0] * s) * At[0] + (ds1 - e[1] * s) * At[1] + (ds2 - e[2] * s) * At[2]
         total = s
         if wp.static(pore_water):
-            div -= A * (grad_p - real(p) * e)
+            div -= grad_p - real(p) * e  # pⁿ, a field at tⁿ: its gradient stays on that configuration
             total = s - real(p) * wp.identity(3, dtype=real)
         normal_dir = A * e
         if in_surface_band and wp.length(normal_dir) > zero:
