@@ -22,7 +22,9 @@ Virtual points move with their half-step velocity, real particles with the half-
 fitted at them or, with ``simulation.particle_velocity = "own"``, with their own (vⁿ + vⁿ⁺¹)/2 (then
 a particle whose fit falls back to Shepard is in free flight); with particle shifting a real particle
 also moves by its shift and takes its fields there (:mod:`warpsph.stages.shifting`); densities
-follow continuity. Both use the configuration at tⁿ. Optional Monaghan
+follow continuity. The half step fits on the configuration at tⁿ; the full step's gradients of
+Φ^{n+½} (velocity gradient, stress divergence, surface normal) are mapped onto the step's midpoint
+configuration x + (Δt/2) v^{n+½}, where Φ^{n+½} lives (docs/method.md). Optional Monaghan
 artificial viscosity acts between real particles and virtual points in the full step, and the
 optional stress filter removes the part of a real particle's stress its virtual neighbours do not
 see (an odd-even null mode of the real → virtual fit).
@@ -85,15 +87,21 @@ def taylor_kernels(spec: Spec):
         ms: wp.array(dtype=real), rhos: wp.array(dtype=real), vs: wp.array(dtype=vec3),
         sigmas: wp.array(dtype=mat33), h: real, c: vec3, inv_den: real, Minv: mat33, e: vec3,
         src_c: wp.array(dtype=vec3), src_inv_den: wp.array(dtype=real), src_minv: wp.array(dtype=mat33),
-        src_e: wp.array(dtype=vec3), in_surface_band: bool, ps: wp.array(dtype=wp.float64),
+        src_e: wp.array(dtype=vec3), in_surface_band: bool, ps: wp.array(dtype=wp.float64), mid: real,
     ):  # fmt: skip
         """Velocity, effective stress, velocity gradient G[k,j] = ∂v_j/∂x_k, divergence of the total
         stress σ′ − pI and pore pressure fitted at x from the sources; in the surface band the
-        divergence gains the weak normal-traction term."""
+        divergence gains the weak normal-traction term. The sources' positions are those at tⁿ; the
+        gradients of v and σ′ (G, the divergence, the surface normal and weights) are taken on the
+        configuration x + mid·v [s] where those fields live, through F⁻ᵀ = (I + mid G)⁻¹ (mid = 0: at
+        tⁿ); the pore pressure's stays at tⁿ (the full step's is the lagged pⁿ)."""
         v = vec3(zero, zero, zero)
         s = mat33(zero)
         G = mat33(zero)
-        div = vec3(zero, zero, zero)
+        # ∂σ′/∂x_k on the configuration at tⁿ, one matrix per axis k
+        ds0 = mat33(zero)
+        ds1 = mat33(zero)
+        ds2 = mat33(zero)
         surface_sum = vec3(zero, zero, zero)
         p = wp.float64(0.0)
         grad_p = vec3(zero, zero, zero)
@@ -104,7 +112,9 @@ def taylor_kernels(spec: Spec):
             v += (vol * psi) * vs[b]
             s += (vol * psi) * sigmas[b]
             G += wp.outer(vol * phi, vs[b])
-            div += sigmas[b] * (vol * phi)
+            ds0 += (vol * phi[0]) * sigmas[b]
+            ds1 += (vol * phi[1]) * sigmas[b]
+            ds2 += (vol * phi[2]) * sigmas[b]
             if wp.static(pore_water):
                 p += wp.float64(vol * psi) * ps[b]
                 grad_p += (vol * real(ps[b])) * phi
@@ -112,14 +122,20 @@ def taylor_kernels(spec: Spec):
                 psi_b, phi_b = fit_weights(x - xs[b], h, src_c[b], src_inv_den[b], src_minv[b])
                 surface_sum += vol * (psi_b * src_e[b] - phi_b)
         G -= wp.outer(e, v)
-        div -= s * e
+        # gradients at tⁿ → on the configuration x + mid·v: ∂/∂x′_m = A[m,k] ∂/∂x_k, A = F⁻ᵀ
+        A = wp.inverse(wp.identity(n=3, dtype=real) + mid * G)
+        G = A * G
+        At = wp.transpose(A)
+        # div_j = ∂σ′_mj/∂x′_m = Σ_k (∂σ′/∂x_k)_jm A[m,k] (σ′ symmetric)
+        div = (ds0 - e[0] * s) * At[0] + (ds1 - e[1] * s) * At[1] + (ds2 - e[2] * s) * At[2]
         total = s
         if wp.static(pore_water):
-            div -= grad_p - real(p) * e
+            div -= grad_p - real(p) * e  # pⁿ, a field at tⁿ: its gradient stays on that configuration
             total = s - real(p) * wp.identity(3, dtype=real)
-        if in_surface_band and wp.length(e) > zero:
-            n = -wp.normalize(e)
-            div += (total * n) * wp.dot(surface_sum, n)
+        normal_dir = A * e
+        if in_surface_band and wp.length(normal_dir) > zero:
+            n = -wp.normalize(normal_dir)
+            div += (total * n) * wp.dot(A * surface_sum, n)
         return v, s, G, div, p
 
     @wp.kernel(enable_backward=False, module="unique", name=f"half_step{variant}" if plasticity else None)
@@ -167,7 +183,7 @@ def taylor_kernels(spec: Spec):
         v, s, G, div, p = fit_fields(x, offsets[i], offsets[i + 1], nbr, real_q, real_mass, real_density, real_v,
                                      real_stress, h, virt_fit_c[i], virt_fit_inv_den[i], virt_fit_minv[i],
                                      virt_fit_e[i], real_fit_c, real_fit_inv_den, real_fit_minv, real_fit_e,
-                                     virt_fit_lambda[i] < surface_threshold, real_p)  # fmt: skip
+                                     virt_fit_lambda[i] < surface_threshold, real_p, zero)  # fmt: skip
         d, spin = split_velocity_gradient(G)
         mat = virt_material[i]
         rho = virt_density[i]
@@ -247,7 +263,11 @@ def taylor_kernels(spec: Spec):
                                             virt_v_half, virt_stress_half, h, real_fit_c[a], real_fit_inv_den[a],
                                             real_fit_minv[a], real_fit_e[a], virt_fit_c, virt_fit_inv_den,
                                             virt_fit_minv, virt_fit_e, real_fit_lambda[a] < surface_threshold,
-                                            virt_p)  # fmt: skip
+                                            virt_p, half * dt)  # fmt: skip
+        # gradients on the midpoint configuration (Hughes–Winget): on the configuration at tⁿ a rigid
+        # rotation's v^{n+½} has the divergence −Δt ω² (a spinning disc's rim drifted outward by
+        # π ωΔt R per turn), and the force of its stress at t^{n+½}, turned by ωΔt/2 since tⁿ, missed
+        # that turn against the points' motion by Δt v^{n+½}: a torque of π ωΔt L per turn
         free = offsets[a + 1] == offsets[a]
         if own_velocity != 0 and uncorrected(real_fit_c[a], real_fit_minv[a]):
             free = True
@@ -257,11 +277,7 @@ def taylor_kernels(spec: Spec):
             G = mat33(zero)
             div = vec3(zero, zero, zero)
             v_half = v[a]
-        # rate of deformation and spin of the step on its midpoint configuration x + (Δt/2) v^{n+½}
-        # (Hughes–Winget): G was fitted on the configuration at tⁿ, on which the half-step velocity of
-        # a rigid rotation has the divergence −Δt ω², a spurious compression each step (a spinning
-        # disc's rim drifted outward by π ωΔt R per turn, docs/method.md)
-        d, spin = split_velocity_gradient(wp.inverse(wp.identity(n=3, dtype=real) + half * dt * G) * G)
+        d, spin = split_velocity_gradient(G)
         mat = material[a]
         rho = density[a]
         s = stress[a]
