@@ -359,6 +359,13 @@ def _kernels(spec: Spec):
         rhs[a] = b
 
     @wp.kernel(enable_backward=False, module="unique")
+    def impose_dirichlet(dirichlet: wp.array(dtype=wp.int32), value: wp.array(dtype=f64), x: wp.array(dtype=f64)):
+        """Drained rows start at their values: decoupled, they then stay there exactly."""
+        a = wp.tid()
+        if dirichlet[a] == 1:
+            x[a] = value[a]
+
+    @wp.kernel(enable_backward=False, module="unique")
     def difference(first: int, a_: wp.array(dtype=f64), b_: wp.array(dtype=f64), out: wp.array(dtype=f64)):
         i = first + wp.tid()
         out[i] = a_[i] - b_[i]
@@ -367,7 +374,7 @@ def _kernels(spec: Spec):
         pressure_ghosts=pressure_ghosts, fit_vector_at_virtual=fit_vector_at_virtual,
         fit_scalar_at_virtual=fit_scalar_at_virtual, divergence_at_real=divergence_at_real,
         gradient_at_real=gradient_at_real, correct_velocity=correct_velocity, darcy=darcy, mark_dirichlet=mark_dirichlet, assemble=assemble,
-        difference=difference,
+        impose_dirichlet=impose_dirichlet, difference=difference,
     )  # fmt: skip
 
 
@@ -524,9 +531,10 @@ class PressureProjection:
                 self.value, self.face_factor, self.momentum_image, rf.smallest_eigenvalue,
                 real(self.exterior_threshold), wp.float64(self.lattice_sum), self.weight, self.column, self.diag,
                 self.rhs], dev)  # fmt: skip
-        # solve into a copy of pⁿ (owned part), Dirichlet rows already at their values
+        # solve into a copy of pⁿ (owned part), Dirichlet rows at their values
         x = so.particle_pore_pressure
         wp.copy(x, self.p_old, count=n)
+        launch(self.k["impose_dirichlet"], n, [self.dirichlet, self.value, x], dev)
         iterations, rel = self.linear.solve(self._matrix(), self.rhs, x)
         self.iterations.append(iterations)
         self.residuals.append(rel)
