@@ -15,6 +15,7 @@ from warpsph.scene_toml import load_scene
 from warpsph.study import metrics
 from warpsph.study.execute import run_studies
 from warpsph.study.report import pareto_front, write_reports
+from warpsph.study import spec
 from warpsph.study.spec import load_study
 
 STUDIES = Path(__file__).resolve().parent.parent / "studies"
@@ -128,6 +129,15 @@ def test_footing_metric_on_a_short_coarse_run(monkeypatch):
     ratio = pressure[inside].mean() / ((2 + math.pi) * 10e3)
     assert measured.extras["signed_error"] == pytest.approx(ratio - 1.0)
     assert measured.errors["limit_load_error"] == pytest.approx(abs(ratio - 1.0)) and 0.1 < ratio < 0.5
+
+
+def test_a_record_is_this_codes(monkeypatch):
+    """A run's id covers the code as well as the scene: records measured by other code are not reused."""
+    scene = load_scene(Path(__file__).resolve().parent.parent / "scenes" / "wave_column.toml")
+    first = spec.run_id(scene, "wave_column", "cpu")
+    assert spec.run_id(scene, "wave_column", "cpu") == first and len(spec.code_fingerprint()) == 16
+    monkeypatch.setattr(spec, "code_fingerprint", lambda: "0" * 16)
+    assert spec.run_id(scene, "wave_column", "cpu") != first
 
 
 def test_pareto_front_on_a_hand_made_set():

@@ -26,6 +26,7 @@ base scene with one combination of overrides; runs that give the same scene are 
 from __future__ import annotations
 
 import dataclasses
+import functools
 import hashlib
 import itertools
 import json
@@ -122,12 +123,25 @@ class Study:
         return SceneError(error.key, f"{error.message} (scene {self.scene_path} with {given})")
 
 
+@functools.cache
+def code_fingerprint() -> str:
+    """16 hex digits of the SHA-256 of warpsph's Python sources (paths and contents): a record measured
+    by other code is not this code's measurement."""
+    root = Path(__file__).resolve().parent.parent
+    digest = hashlib.sha256()
+    for path in sorted(root.rglob("*.py")):
+        digest.update(path.relative_to(root).as_posix().encode() + b"\0" + path.read_bytes())
+    return digest.hexdigest()[:16]
+
+
 def run_id(scene: Scene, metric: str, device: str) -> str:
-    """16 hex digits of the SHA-256 of the scene's settings (name and source text aside), the metric
-    and the device: equal scenes share a record however their overrides were written."""
+    """16 hex digits of the SHA-256 of the scene's settings (name and source text aside), the metric,
+    the device and the code (:func:`code_fingerprint`): equal scenes share a record however their
+    overrides were written, and a change to the code measures afresh."""
     settings = dataclasses.asdict(scene)
     del settings["name"], settings["source_text"]
-    text = json.dumps({"scene": settings, "metric": metric, "device": device}, sort_keys=True, default=str)
+    text = json.dumps({"scene": settings, "metric": metric, "device": device, "code": code_fingerprint()},
+                      sort_keys=True, default=str)  # fmt: skip
     return hashlib.sha256(text.encode()).hexdigest()[:16]
 
 
