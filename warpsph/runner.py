@@ -86,7 +86,7 @@ def warm_up(solver: Solver, guard: Guard, state: State, scratch: State, t: float
     with warnings.catch_warnings():  # the throw-away step reports nothing
         warnings.simplefilter("ignore")
         solver.step(state, scratch, t, dt)
-    guard.first_bad(scratch)
+    guard.find(scratch)
     wp.synchronize_device(solver.model.device)
     scratch.assign(state)
     solver.stage_seconds.clear()
@@ -232,9 +232,8 @@ class Run:
         self.summary.compile_seconds = warm_up(self.solver, self.guard, self.state, self.scratch, self.time, self.dt)
 
     def _check(self) -> None:
-        bad = self.guard.first_bad(self.state)
+        bad, point = self.guard.find(self.state)
         if bad is None:
-            point = self.guard.first_bad_virtual(self.state)
             if point is not None:
                 q = self.state.virtual_q.numpy()[point]
                 density = float(self.state.virtual_density.numpy()[point])

@@ -133,11 +133,10 @@ def run_sampled(scene, sample_steps: Iterable[int], extract: Callable, device: s
         wp.synchronize_device(model.device)
         step_seconds += time.perf_counter() - start
         step_cpu_seconds += time.process_time() - start_cpu
-        bad = guard.first_bad(state)
+        bad, point = guard.find(state)
         if bad is not None:
             raise SimulationError(f"unstable by step {step}, t = {step * dt:.6g} s: particle {bad} has a non-finite "
                                   f"field or a speed beyond {scene.simulation.velocity_limit:g} m/s")  # fmt: skip
-        point = guard.first_bad_virtual(state)
         if point is not None:
             raise SimulationError(f"unstable by step {step}, t = {step * dt:.6g} s: virtual point {point} has a "
                                   "non-finite position or density or a non-positive density")  # fmt: skip

@@ -63,11 +63,11 @@ def test_a_bad_virtual_point_is_found():
     """The guard checks the virtual points too: a blow-up can reach their densities first."""
     model, state = build(wave_column("two_set"))
     guard = Guard(model, LARGEST_SPEED)
-    assert guard.first_bad(state) is None and guard.first_bad_virtual(state) is None
+    assert guard.find(state) == (None, None)
     density = state.virtual_density.numpy()
     density[[7, 9]] = (np.nan, -1.0)
     state.virtual_density.assign(density)
-    assert guard.first_bad(state) is None and guard.first_bad_virtual(state) == 7
+    assert guard.find(state) == (None, 7)
 
 
 def step_in(message: str) -> int:

@@ -29,7 +29,7 @@ def _kernel(spec: Spec):
         density: wp.array(dtype=real),
         pore_pressure: wp.array(dtype=wp.float64),
         speed_limit: real,
-        first_bad: wp.array(dtype=wp.int32),
+        flags: wp.array(dtype=wp.int32),
     ):
         a = wp.tid()
         ok = wp.isfinite(q[a]) and wp.isfinite(v[a]) and wp.isfinite(stress[a]) and density[a] > real(0.0)
@@ -37,43 +37,35 @@ def _kernel(spec: Spec):
         if wp.static(pore_water):
             ok = ok and wp.isfinite(pore_pressure[a])
         if not ok or wp.length(v[a]) > speed_limit:
-            wp.atomic_min(first_bad, 0, a)
+            wp.atomic_min(flags, 0, a)  # slot 0: particles
 
     @wp.kernel(enable_backward=False, module="unique")
-    def find_bad_virtual(q: wp.array(dtype=vec3), density: wp.array(dtype=real), first_bad: wp.array(dtype=wp.int32)):
+    def find_bad_virtual(q: wp.array(dtype=vec3), density: wp.array(dtype=real), flags: wp.array(dtype=wp.int32)):
         i = wp.tid()
         if not (wp.isfinite(q[i]) and wp.isfinite(density[i]) and density[i] > real(0.0)):
-            wp.atomic_min(first_bad, 0, i)
+            wp.atomic_min(flags, 1, i)  # slot 1: virtual points
 
     return find_bad, find_bad_virtual
 
 
 class Guard:
-    """``first_bad(state)`` returns the lowest index of a bad owned particle, or None;
-    ``first_bad_virtual(state)`` that of a bad owned virtual point (two-set scheme), or None."""
+    """``find(state)`` returns (the lowest index of a bad owned particle, that of a bad owned virtual
+    point), each None where there is none; one read from the device for both."""
 
     def __init__(self, model: Model, speed_limit: float):
         self.model = model
         self.speed_limit = min(speed_limit, LARGEST_SPEED)
-        self.flag = wp.zeros(1, dtype=wp.int32, device=model.device)
+        self.flags = wp.zeros(2, dtype=wp.int32, device=model.device)
 
-    def first_bad(self, state: State) -> int | None:
+    def find(self, state: State) -> tuple[int | None, int | None]:
         m = self.model
-        self.flag.fill_(NO_PARTICLE)
-        launch(_kernel(m.spec)[0], m.particle_count,
+        find_bad, find_bad_virtual = _kernel(m.spec)
+        self.flags.fill_(NO_PARTICLE)
+        launch(find_bad, m.particle_count,
                [state.particle_q, state.particle_v, state.particle_stress, state.particle_density,
-                state.particle_pore_pressure, m.spec.real(self.speed_limit), self.flag],
+                state.particle_pore_pressure, m.spec.real(self.speed_limit), self.flags],
                m.device)  # fmt: skip
-        return self._read()
-
-    def first_bad_virtual(self, state: State) -> int | None:
-        m = self.model
-        if state.virtual_q is None:
-            return None
-        self.flag.fill_(NO_PARTICLE)
-        launch(_kernel(m.spec)[1], m.virtual_count, [state.virtual_q, state.virtual_density, self.flag], m.device)
-        return self._read()
-
-    def _read(self) -> int | None:
-        bad = int(self.flag.numpy()[0])
-        return None if bad == NO_PARTICLE else bad
+        if state.virtual_q is not None:
+            launch(find_bad_virtual, m.virtual_count, [state.virtual_q, state.virtual_density, self.flags], m.device)
+        particle, point = (int(f) for f in self.flags.numpy())
+        return (None if particle == NO_PARTICLE else particle), (None if point == NO_PARTICLE else point)
