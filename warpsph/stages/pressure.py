@@ -258,8 +258,10 @@ def _kernels(spec: Spec):
         first: int, n: int, on_drained: wp.array(dtype=wp.int32), drained_value: wp.array(dtype=f64),
         eigenvalue: wp.array(dtype=real), drained_surface: int, q: wp.array(dtype=vec3),
         material: wp.array(dtype=wp.int32), water_density: wp.array(dtype=f64), gravity: vec3, water_table: f64,
-        dirichlet: wp.array(dtype=wp.int32), value: wp.array(dtype=f64),
+        dirichlet: wp.array(dtype=wp.int32), value: wp.array(dtype=f64), p_start: wp.array(dtype=f64),
     ):  # fmt: skip
+        """Drained rows and their values; a drained row's unknown starts the solve at its value
+        (decoupled, it then stays there exactly)."""
         a = first + wp.tid()
         dirichlet[a] = 0
         value[a] = zero
@@ -271,6 +273,8 @@ def _kernels(spec: Spec):
             dirichlet[a] = 1  # p = 0: the excess is minus the hydrostatic pressure
             value[a] = -water_density[material[a]] * (f64(gravity[0]) * f64(x[0])
                        + f64(gravity[1]) * (f64(x[1]) - water_table) + f64(gravity[2]) * f64(x[2]))  # fmt: skip
+        if dirichlet[a] == 1:
+            p_start[a] = value[a]
 
     @wp.kernel(enable_backward=False, module="unique")
     def assemble(
@@ -359,13 +363,6 @@ def _kernels(spec: Spec):
         rhs[a] = b
 
     @wp.kernel(enable_backward=False, module="unique")
-    def impose_dirichlet(dirichlet: wp.array(dtype=wp.int32), value: wp.array(dtype=f64), x: wp.array(dtype=f64)):
-        """Drained rows start at their values: decoupled, they then stay there exactly."""
-        a = wp.tid()
-        if dirichlet[a] == 1:
-            x[a] = value[a]
-
-    @wp.kernel(enable_backward=False, module="unique")
     def difference(first: int, a_: wp.array(dtype=f64), b_: wp.array(dtype=f64), out: wp.array(dtype=f64)):
         i = first + wp.tid()
         out[i] = a_[i] - b_[i]
@@ -374,7 +371,7 @@ def _kernels(spec: Spec):
         pressure_ghosts=pressure_ghosts, fit_vector_at_virtual=fit_vector_at_virtual,
         fit_scalar_at_virtual=fit_scalar_at_virtual, divergence_at_real=divergence_at_real,
         gradient_at_real=gradient_at_real, correct_velocity=correct_velocity, darcy=darcy, mark_dirichlet=mark_dirichlet, assemble=assemble,
-        impose_dirichlet=impose_dirichlet, difference=difference,
+        difference=difference,
     )  # fmt: skip
 
 
@@ -515,12 +512,15 @@ class PressureProjection:
             self.weight = wp.zeros(size, dtype=wp.float64, device=dev)
             self.column = wp.zeros(size, dtype=wp.int32, device=dev)
         wp.copy(self.p_old, si.particle_pore_pressure)
+        # the solve's unknown: a copy of pⁿ (owned part), drained rows at their values
+        x = so.particle_pore_pressure
+        wp.copy(x, self.p_old, count=n)
         gravity = m.spec.vec3(*pw.gravity)
         drained_surface = int(self.settings.free_surface == "drained")
         launch(self.k["mark_dirichlet"], n,
                [0, n, self.on_drained, self.drained_value, rf.smallest_eigenvalue, drained_surface, si.particle_q,
                 m.particle_material, pw.material_water_density, gravity, wp.float64(pw.water_table), self.dirichlet,
-                self.value], dev)  # fmt: skip
+                self.value, x], dev)  # fmt: skip
         args = self._plane_args()
         launch_rows(self.k["assemble"], n,
                [h, real(dt), wp.float64(self.scale), n, nl.offsets, nl.indices, si.particle_q, m.particle_origin,
@@ -531,10 +531,6 @@ class PressureProjection:
                 self.value, self.face_factor, self.momentum_image, rf.smallest_eigenvalue,
                 real(self.exterior_threshold), wp.float64(self.lattice_sum), self.weight, self.column, self.diag,
                 self.rhs], dev)  # fmt: skip
-        # solve into a copy of pⁿ (owned part), Dirichlet rows at their values
-        x = so.particle_pore_pressure
-        wp.copy(x, self.p_old, count=n)
-        launch(self.k["impose_dirichlet"], n, [self.dirichlet, self.value, x], dev)
         iterations, rel = self.linear.solve(self._matrix(), self.rhs, x)
         self.iterations.append(iterations)
         self.residuals.append(rel)
