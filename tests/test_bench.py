@@ -35,4 +35,6 @@ def test_bench_writes_positive_figures(tmp_path, capsys):
         assert abs(sum(r["stage_share"].values()) - 1.0) < 1e-9 and "neighbours" in r["stage_share"]
         assert (r["virtual_points"] > 0) == (r["scheme"] == "two_set")
         assert ("pressure_projection" in r["stage_share"]) == (r["effects"] == "saturated")
+        its = r["solve_iterations_per_step"]
+        assert (its is None) == (r["effects"] != "saturated") and (its is None or its >= 1), r
     assert "particle-steps/s" in capsys.readouterr().out

@@ -173,7 +173,10 @@ def bench_size(n: int, scheme: str, effects: str, threads: int, args) -> dict:
     _, compile_s = timed(advance, solver, states, 1, dt)
     states[1].assign(state)
     wp.synchronize_device(model.device)
+    if solver.projection is not None:
+        solver.projection.reset_statistics()
     states, wall = timed(advance, solver, states, steps, dt)
+    iterations = solver.projection.iterations if solver.projection is not None else None
     pairs = neighbour_pairs(solver)
     stage = stage_profile(model, states, dt, min(steps, PROFILE_STEPS))
     memory = memory_bytes(model, states, solver)
@@ -195,6 +198,7 @@ def bench_size(n: int, scheme: str, effects: str, threads: int, args) -> dict:
         **timing_fields(particles, steps, dt, build_s, compile_s, wall),
         "neighbour_pairs_per_step": pairs,
         "neighbour_interactions_per_second": pairs * steps / wall,
+        "solve_iterations_per_step": sum(iterations) / len(iterations) if iterations else None,
         "stage_seconds_per_step": stage,
         "stage_share": {name: sec / total_stage for name, sec in stage.items()},
         "memory_bytes": memory,
@@ -241,6 +245,7 @@ COLUMNS = (
     ("particle-steps/s", "{particle_steps_per_second:.3g}"),
     ("pairs/step", "{neighbour_pairs_per_step:d}"),
     ("interactions/s", "{neighbour_interactions_per_second:.3g}"),
+    ("solve it/step", "{solve_iterations}"),
     ("bytes/particle", "{memory_bytes_per_particle:.0f}"),
 )
 
@@ -257,7 +262,12 @@ def markdown_table(header: list[str], rows: list[list[str]]) -> str:
 
 def throughput_table(results: list[dict]) -> str:
     """The main table: one row per size and scheme."""
-    rows = [[fmt.format(ms_per_step=1e3 * r["seconds_per_step"], **r) for _, fmt in COLUMNS] for r in results]
+    def cells(r: dict) -> list[str]:
+        its = r["solve_iterations_per_step"]
+        extra = {"ms_per_step": 1e3 * r["seconds_per_step"], "solve_iterations": "-" if its is None else f"{its:.1f}"}
+        return [fmt.format(**extra, **r) for _, fmt in COLUMNS]
+
+    rows = [cells(r) for r in results]
     return markdown_table([name for name, _ in COLUMNS], rows)
 
 
