@@ -119,7 +119,7 @@ def test_footing_metric_on_a_short_coarse_run(monkeypatch):
     assert probes["footing_contact_pressure"].scale == pytest.approx(-1 / 0.55)
     assert metrics.footing_scene(load_scene(scene_path, {"simulation.dx": 0.075})).probes[0].scale == pytest.approx(
         1 / 0.4875)  # x = 0 ... 0.45  # fmt: skip
-    assert scene.probes[0].scale == pytest.approx(1 / 0.525)  # the scene itself is left alone
+    assert scene.probes[0].scale == pytest.approx(1.92)  # the scene itself (B/2 = 0.5208 m at 1/24 m) is left alone
     monkeypatch.setattr(metrics, "FOOTING_WINDOW", (0.001, 0.002))
     assert metric.end_time(scene) == pytest.approx(0.2)  # the end of the ramp: v T / 2 = 2 mm
     measured = metric.measure(scene, "cpu")

@@ -29,12 +29,16 @@ INSIDE_SHEPARD = 0.8
 """A lattice-cell centre whose Shepard sum of the real particles reaches this [-] is inside the body
 (measured at the start's layout: at least 0.52 at the cell centres inside a box, its corners
 included, at most 0.08 at the centres just outside it; cubic spline, h = 1.3 Δx, 2D)."""
+TIE = 1.0e-9
+"""Squared distances [h²] closer than this are a tie when a regenerated point takes the material of
+its nearest real particle."""
 
 
 @functools.cache
 def _sample_kernel(spec: Spec):
     real, vec3 = spec.real, spec.vec3
     W, _ = smoothing_functions(spec)
+    tie_h2 = real(TIE)
 
     @wp.kernel(enable_backward=False, module="unique")
     def sample_reals(
@@ -54,7 +58,8 @@ def _sample_kernel(spec: Spec):
         """At each point: S = Σ V_b W; the Shepard mean of ρ [kg/m³]; the initial position [m], the
         point less the Shepard mean of the displacement (exact for a rigid translation, also at a
         surface, where a mean of the initial positions would be pulled inwards); and the material of
-        the nearest owned real particle b."""
+        the nearest owned real particle b, the larger material index where two lie equally near
+        (within TIE h²: a point midway between two bodies' rows, whose rounding must not decide)."""
         c = wp.tid()
         x = points[c]
         s = real(0.0)
@@ -69,8 +74,9 @@ def _sample_kernel(spec: Spec):
             s += w
             rho += w * density[b]
             x0 += w * (q[b] - origin[b])
-            if r2 < nearest:
-                nearest = r2
+            tie = wp.abs(r2 - nearest) <= tie_h2 * h * h
+            if (r2 < nearest and not tie) or (tie and material[b] > mat):
+                nearest = wp.min(r2, nearest)
                 mat = material[b]
         shepard[c] = s
         if s > real(0.0):
