@@ -29,9 +29,10 @@ INSIDE_SHEPARD = 0.8
 """A lattice-cell centre whose Shepard sum of the real particles reaches this [-] is inside the body
 (measured at the start's layout: at least 0.52 at the cell centres inside a box, its corners
 included, at most 0.08 at the centres just outside it; cubic spline, h = 1.3 Δx, 2D)."""
-TIE = 1.0e-9
+TIE = 1.0e-5
 """Squared distances [h²] closer than this are a tie when a regenerated point takes the material of
-its nearest real particle."""
+its nearest real particle (above float32 rounding of r² ≤ 4h², far below the gap between lattice
+neighbours' r², about 0.6 h²)."""
 
 
 @functools.cache
