@@ -1,4 +1,4 @@
-"""Shared tools of the stability suite: stepping in memory, energies, spacing and peak measures."""
+"""Shared tools of the stability suite: stepping in memory, energies, spacing and peak measures, one step's Jacobian."""
 
 from __future__ import annotations
 
@@ -8,6 +8,7 @@ import numpy as np
 import pytest
 
 from warpsph.builder import build
+from warpsph.lattice import used_axes
 from warpsph.solver import Solver
 
 SCHEMES = ("two_set", "collocated")
@@ -94,3 +95,47 @@ def closest_pair(points: np.ndarray) -> float:
         d[rows, start + rows] = np.inf
         best = min(best, float(d.min()))
     return best
+
+
+def step_jacobian(scene) -> np.ndarray:
+    """Jacobian of one step of ``scene`` about its initial state (at rest, unstressed), by finite
+    differences: the owned particles' velocity components on the used axes and their stress components
+    (σ in units of ρ c per 1 m/s, so both blocks are of one size); particles stay where they are, which
+    is exact to first order about an unstressed state. Its spectral radius above 1 is a mode that grows
+    by that factor per step."""
+    model, base = build(scene)
+    state, out = model.state(), model.state()
+    solver, dt = Solver(model), scene.time_step
+    n = model.particle_count
+    used = used_axes(scene.simulation.dim)
+    pairs = [(i, j) for i in range(3) for j in range(i, 3) if (i in used and j in used) or i == j]
+    material = next(iter(scene.materials.values()))
+    unit = material.density * material.p_wave_speed
+    size = n * (len(used) + len(pairs))
+    eps = 1e-6
+
+    def pack(s) -> np.ndarray:
+        v = s.particle_v.numpy()[:n].astype(np.float64)
+        sigma = s.particle_stress.numpy()[:n].astype(np.float64) / unit
+        return np.concatenate([v[:, k] for k in used] + [sigma[:, i, j] for i, j in pairs])
+
+    jacobian = np.zeros((size, size))
+    column = 0
+    for field, components in (("v", used), ("stress", pairs)):
+        for comp in components:
+            for a in range(n):
+                state.assign(base)
+                if field == "v":
+                    v = state.particle_v.numpy()
+                    v[a, comp] += eps
+                    state.particle_v.assign(v)
+                else:
+                    s = state.particle_stress.numpy()
+                    s[a, comp[0], comp[1]] += eps * unit
+                    if comp[0] != comp[1]:
+                        s[a, comp[1], comp[0]] += eps * unit
+                    state.particle_stress.assign(s)
+                solver.step(state, out, 0.0, dt)
+                jacobian[:, column] = (pack(out) - pack(base)) / eps
+                column += 1
+    return jacobian
