@@ -14,6 +14,8 @@ the sources' fits: the surface force that the negative adjoint of the sources' g
 large stresses along a surface do not amplify particle-disorder noise. Tried and rejected (see
 docs/method.md): projecting the normal traction out of surface stresses (grew without bound in a
 free block) and the full adjoint divergence in the band (broke down under 1 MPa of compression).
+The band's divergence is not energy-conserving: a thin free plate gains energy (docs/stability.md,
+"Free plate", with the variants measured).
 With the plasticity effect the source also relaxes the stress (Perzyna, method.md "Viscoplasticity"),
 applied after the flux (sequential splitting): σ* = Φⁿ + Δt Dᵉ:d, then ΔS is integrated from σ* and
 the equivalent plastic strain ε̄ (fitted from the reals at the virtual points, the real particle's
