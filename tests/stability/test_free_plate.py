@@ -5,14 +5,15 @@ A plane-strain plate 2 m × 0.4 m (E = 10 MPa, ν = 0.3, ρ = 2000 kg/m³, the b
 of 1 mm/s (standard deviation per component), Δx = 0.1 m, Courant 0.5. Nothing drives it, so:
 
 - its total energy (kinetic + strain, :func:`stability_tools.energy`) never rises more than 0.1 % over
-  3 000 steps (1.8 s, about 40 transits along it);
+  3 000 steps (1.8 s, about 75 transits along it);
 - one step about rest is linearly stable: the spectral radius of its Jacobian
   (:func:`stability_tools.step_jacobian`, velocities and stresses of all 105 particles) is at most 1.
 
 Measured (docs/stability.md, *Free plate*): the two-set scheme's surface band is not
 energy-conserving, and a smooth mode of the plate (ω ≈ 222 rad/s) grows by 0.27 % per step; the
 semi-discrete growth (Courant 0.03) is 21 /s, and at Courant 0.5 it rises with refinement
-(4.4 /s at Δx = 0.1 m, 11.8 /s at 0.05 m), which is why finer lattices break down sooner. The block
+(4.4 /s at Δx = 0.1 m, 11.8 /s at 0.05 m), as the footing runs that break down sooner on finer
+lattices would need (that link is not measured). The block
 of ``tests/test_free_surface.py`` (2 m × 1 m, ν = 0.25) has the same defect (18 /s semi-discrete) but
 is damped at Courant 0.5 to a spectral radius of 1.000003.
 """
