@@ -100,10 +100,10 @@ def closest_pair(points: np.ndarray) -> float:
 
 def step_jacobian(scene) -> np.ndarray:
     """Jacobian of one step of ``scene`` about its initial state (at rest, unstressed), by finite
-    differences: the owned particles' velocity components on the used axes and their stress components
-    (σ in units of ρ c of the scene's first material per 1 m/s, so both blocks are of one size);
-    particles stay where they are, which is exact to first order about an unstressed state. Its spectral radius above 1 is a mode that grows
-    by that factor per step."""
+    differences: the owned particles' velocity components on the used axes and their stress
+    components (σ in units of ρ c of the scene's first material per 1 m/s, so both blocks are of one
+    size); particles stay where they are, which is exact to first order about an unstressed state.
+    Its spectral radius above 1 is a mode that grows by that factor per step."""
     model, base = build(scene)
     state, out = model.state(), model.state()
     solver, dt = Solver(model), scene.time_step
