@@ -11,9 +11,8 @@ of 1 mm/s (standard deviation per component), Δx = 0.1 m, Courant 0.5. Nothing 
 
 Measured (docs/stability.md, *Free plate*): the two-set scheme's surface band is not
 energy-conserving, and a smooth mode of the plate (ω ≈ 222 rad/s) grows by 0.27 % per step; the
-semi-discrete growth (Courant 0.03) is 21 /s, and at Courant 0.5 it rises with refinement
-(4.4 /s at Δx = 0.1 m, 11.8 /s at 0.05 m), as the footing runs that break down sooner on finer
-lattices would need (that link is not measured). The block
+semi-discrete growth (Courant 0.03) is 21 /s, and at Courant 0.5 the plate grows at every spacing
+tried (4.4, 11.7, 2.3 and 7.8 /s at Δx = 0.1, 0.05, 0.025 and 0.0125 m). The block
 of ``tests/test_free_surface.py`` (2 m × 1 m, ν = 0.25) has the same defect (18 /s semi-discrete) but
 is damped at Courant 0.5 to a spectral radius of 1.000003.
 """
