@@ -1,7 +1,7 @@
 """Free surfaces: a thin free plate must not gain energy (issue 6, "hard cases stay stable").
 
-A plane-strain plate 2 m × 0.4 m (E = 10 MPa, ν = 0.3, ρ = 2000 kg/m³, the bar of
-``test_tension.py``) with no boundary planes, at rest and unstressed, seeded with random velocities
+A plane-strain plate 2 m × 0.4 m (E = 10 MPa, ν = 0.3, ρ = 2000 kg/m³, ``stability_tools.SOLID``,
+the bars' solid) with no boundary planes, at rest and unstressed, seeded with random velocities
 of 1 mm/s (standard deviation per component), Δx = 0.1 m, Courant 0.5. Nothing drives it, so:
 
 - its total energy (kinetic + strain, :func:`stability_tools.energy`) never rises more than 0.1 % over
@@ -21,11 +21,10 @@ import functools
 
 import numpy as np
 import pytest
-from stability_tools import energy, expected_failure, largest_rise, march, scheme_params, step_jacobian
+from stability_tools import SOLID, energy, expected_failure, largest_rise, march, scheme_params, step_jacobian
 
-from warpsph.scene import Body, Material, Scene, Simulation
+from warpsph.scene import Body, Scene, Simulation
 
-SOLID = Material("solid", density=2000.0, youngs_modulus=10e6, poisson_ratio=0.3)
 NOISE = 1e-3
 """Standard deviation of the seeded velocity per component [m/s]."""
 STEPS = 3000

@@ -29,11 +29,10 @@ import functools
 
 import numpy as np
 import pytest
-from stability_tools import closest_pair, energy, expected_failure, largest_rise, march, scheme_params
+from stability_tools import SOLID, closest_pair, energy, expected_failure, largest_rise, march, scheme_params
 
-from warpsph.scene import Body, Boundary, Material, Scene, Simulation
+from warpsph.scene import Body, Boundary, Scene, Simulation
 
-SOLID = Material("solid", density=2000.0, youngs_modulus=10e6, poisson_ratio=0.3)
 LENGTH, WIDTH, DX = 2.0, 0.4, 0.05
 TRANSITS = 20
 NOISE = 0.01
