@@ -246,23 +246,44 @@ free_surface = "impermeable"
 """
 
 
+HYDROSTATIC_BASE = 1000.0 * 9.81 * 2.2
+"""ρ_w g H of the layer [Pa]."""
+
+
 def layer_excess_pressure(tmp_path_factory, text, name):
-    """Largest |excess pore pressure| [Pa] after 0.3 s in a saturated geostatic layer at rest."""
+    """Largest |excess pore pressure| [Pa] of a saturated geostatic layer at rest, at 0.1, 0.2 and 0.3 s."""
     from warpsph.scene_toml import parse_scene
 
     out = tmp_path_factory.mktemp(name)
-    Run(parse_scene(text, name=name), out).run()
+    Run(parse_scene(text.replace("frame_interval = 0.3", "frame_interval = 0.1"), name=name), out).run()
     results = load_results(out / "results.h5")
-    x0, last = results.frame(0)["position"], results.frame(len(results) - 1)
-    return np.abs(last["pore_pressure"] - 1000.0 * 9.81 * (2.2 - x0[:, 1])).max()
+    x0 = results.frame(0)["position"]
+    return np.array([np.abs(results.frame(k)["pore_pressure"] - 1000.0 * 9.81 * (2.2 - x0[:, 1])).max()
+                     for k in range(1, len(results))])  # fmt: skip
+
+
+@pytest.fixture(scope="module")
+def free_layer_excess(tmp_path_factory):
+    return layer_excess_pressure(tmp_path_factory, LAYER, "layer_free")
 
 
 def test_layer_at_rest_under_a_drained_top_plane(tmp_path_factory):
     """Why the footing's ground surface is a drained plane: with one the layer stays at rest."""
-    assert layer_excess_pressure(tmp_path_factory, LAYER + DRAINED_TOP_PLANE, "layer_plane") < 1.0
+    assert layer_excess_pressure(tmp_path_factory, LAYER + DRAINED_TOP_PLANE, "layer_plane").max() < 1.0
 
 
-@pytest.mark.xfail(strict=True, reason="a drained free surface over a geostatic saturated layer builds +95 kPa "
-                   "of excess pore pressure in the row below it within 0.3 s (core, docs/scenes.md)")
-def test_layer_at_rest_under_a_drained_free_surface(tmp_path_factory):
-    assert layer_excess_pressure(tmp_path_factory, LAYER, "layer_free") < 0.01 * 1000.0 * 9.81 * 2.2
+def test_drained_free_surface_does_not_pump_the_pore_pressure(free_layer_excess):
+    """A drained free surface holds zero pore pressure through its Dirichlet rows; the surface band's
+    weak term pushes it with the effective stress only. When it also pushed with the particle's own
+    excess pressure the two fed each other: the row below the surface rose by 26, 67 and 95 kPa at
+    0.1, 0.2 and 0.3 s (measured before the change; now 3.7, 3.4 and 3.2 kPa, docs/method.md)."""
+    print(f"\nlayer under a drained free surface: largest excess pore pressure {free_layer_excess / 1e3} kPa")
+    assert np.all(np.diff(free_layer_excess) <= 0.0)
+    assert free_layer_excess.max() < 0.2 * HYDROSTATIC_BASE
+
+
+@pytest.mark.xfail(strict=True, reason="the surface band's weak term gives the row below a drained free surface "
+                   "a spurious force where the geostatic stress varies with depth: the layer starts with +4.8 kPa "
+                   "of excess pore pressure and keeps 3.2 kPa at 0.3 s (docs/method.md, Known limits)")
+def test_layer_at_rest_under_a_drained_free_surface(free_layer_excess):
+    assert free_layer_excess[-1] < 0.01 * HYDROSTATIC_BASE

@@ -90,10 +90,13 @@ def taylor_kernels(spec: Spec):
         sigmas: wp.array(dtype=mat33), h: real, c: vec3, inv_den: real, Minv: mat33, e: vec3,
         src_c: wp.array(dtype=vec3), src_inv_den: wp.array(dtype=real), src_minv: wp.array(dtype=mat33),
         src_e: wp.array(dtype=vec3), in_surface_band: bool, ps: wp.array(dtype=wp.float64), mid: real,
+        water_on_surface: real,
     ):  # fmt: skip
         """Velocity, effective stress, velocity gradient G[k,j] = ∂v_j/∂x_k, divergence of the total
         stress σ′ − pI and pore pressure fitted at x from the sources; in the surface band the
-        divergence gains the weak normal-traction term. The sources' positions are those at tⁿ; the
+        divergence gains the weak normal-traction term of σ′ − w pI (w = ``water_on_surface``: 1 at an
+        impermeable free surface, 0 at a drained one, whose zero pore pressure the fitted gradient
+        already takes from its Dirichlet rows). The sources' positions are those at tⁿ; the
         gradients of v and σ′ (G, the divergence, the surface normal and weights) are taken on the
         configuration x + mid·v [s] where those fields live, through F⁻ᵀ = (I + mid G)⁻¹ (mid = 0: at
         tⁿ); the pore pressure's stays at tⁿ (the full step's is the lagged pⁿ)."""
@@ -133,7 +136,7 @@ def taylor_kernels(spec: Spec):
         total = s
         if wp.static(pore_water):
             div -= grad_p - real(p) * e  # pⁿ, a field at tⁿ: its gradient stays on that configuration
-            total = s - real(p) * wp.identity(3, dtype=real)
+            total = s - water_on_surface * real(p) * wp.identity(3, dtype=real)
         normal_dir = A * e
         if in_surface_band and wp.length(normal_dir) > zero:
             n = -wp.normalize(normal_dir)
@@ -147,6 +150,7 @@ def taylor_kernels(spec: Spec):
         dt: real,
         gravity: vec3,
         surface_threshold: real,
+        water_on_surface: real,
         offsets: wp.array(dtype=wp.int32),
         nbr: wp.array(dtype=wp.int32),
         real_q: wp.array(dtype=vec3),
@@ -185,7 +189,8 @@ def taylor_kernels(spec: Spec):
         v, s, G, div, p = fit_fields(x, offsets[i], offsets[i + 1], nbr, real_q, real_mass, real_density, real_v,
                                      real_stress, h, virt_fit_c[i], virt_fit_inv_den[i], virt_fit_minv[i],
                                      virt_fit_e[i], real_fit_c, real_fit_inv_den, real_fit_minv, real_fit_e,
-                                     virt_fit_lambda[i] < surface_threshold, real_p, zero)  # fmt: skip
+                                     virt_fit_lambda[i] < surface_threshold, real_p, zero,
+                                     water_on_surface)  # fmt: skip
         d, spin = split_velocity_gradient(G)
         mat = virt_material[i]
         rho = virt_density[i]
@@ -219,6 +224,7 @@ def taylor_kernels(spec: Spec):
         dt: real,
         gravity: vec3,
         surface_threshold: real,
+        water_on_surface: real,
         alpha: real,
         offsets: wp.array(dtype=wp.int32),
         nbr: wp.array(dtype=wp.int32),
@@ -265,7 +271,7 @@ def taylor_kernels(spec: Spec):
                                             virt_v_half, virt_stress_half, h, real_fit_c[a], real_fit_inv_den[a],
                                             real_fit_minv[a], real_fit_e[a], virt_fit_c, virt_fit_inv_den,
                                             virt_fit_minv, virt_fit_e, real_fit_lambda[a] < surface_threshold,
-                                            virt_p, half * dt)  # fmt: skip
+                                            virt_p, half * dt, water_on_surface)  # fmt: skip
         # gradients on the midpoint configuration (Hughes–Winget): on the configuration at tⁿ a rigid
         # rotation's v^{n+½} has the divergence −Δt ω² (a spinning disc's rim drifted outward by
         # π ωΔt R per turn), and the force of its stress at t^{n+½}, turned by ωΔt/2 since tⁿ, missed
