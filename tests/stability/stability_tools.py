@@ -103,10 +103,11 @@ def closest_pair(points: np.ndarray) -> float:
 
 def step_jacobian(scene) -> np.ndarray:
     """Jacobian of one step of ``scene`` about its initial state (at rest, unstressed), by finite
-    differences: the owned particles' velocity components on the used axes and their stress
-    components (σ in units of ρ c of the scene's first material per 1 m/s, so both blocks are of one
-    size); particles stay where they are, which is exact to first order about an unstressed state.
-    Its spectral radius above 1 is a mode that grows by that factor per step."""
+    differences: the owned particles' velocity components on the used axes, their stress components
+    and, with pore water, their pore pressure (stress and pressure in units of ρ c of the scene's
+    first material per 1 m/s, so the blocks are of one size); particles stay where they are, which is
+    exact to first order about an unstressed state. Its spectral radius above 1 is a mode that grows
+    by that factor per step."""
     model, base = build(scene)
     state, out = model.state(), model.state()
     solver, dt = Solver(model), scene.time_step
@@ -115,32 +116,40 @@ def step_jacobian(scene) -> np.ndarray:
     pairs = [(i, j) for i in range(3) for j in range(i, 3) if (i in used and j in used) or i == j]
     material = next(iter(scene.materials.values()))
     unit = material.density * material.p_wave_speed
-    size = n * (len(used) + len(pairs))
+    fields = [("v", k) for k in used] + [("stress", pair) for pair in pairs]
+    if scene.effects.pore_water:
+        fields.append(("pressure", None))
     eps = 1e-6
 
     def pack(s) -> np.ndarray:
         v = s.particle_v.numpy()[:n].astype(np.float64)
         sigma = s.particle_stress.numpy()[:n].astype(np.float64) / unit
-        return np.concatenate([v[:, k] for k in used] + [sigma[:, i, j] for i, j in pairs])
+        parts = [v[:, k] for k in used] + [sigma[:, i, j] for i, j in pairs]
+        if scene.effects.pore_water:
+            parts.append(s.particle_pore_pressure.numpy()[:n] / unit)
+        return np.concatenate(parts)
+
+    def perturb(field: str, comp, a: int) -> None:
+        if field == "v":
+            v = state.particle_v.numpy()
+            v[a, comp] += eps
+            state.particle_v.assign(v)
+        elif field == "stress":
+            s = state.particle_stress.numpy()
+            s[a, comp[0], comp[1]] += eps * unit
+            if comp[0] != comp[1]:
+                s[a, comp[1], comp[0]] += eps * unit
+            state.particle_stress.assign(s)
+        else:
+            p = state.particle_pore_pressure.numpy()
+            p[a] += eps * unit
+            state.particle_pore_pressure.assign(p)
 
     rest = pack(base)
-    jacobian = np.zeros((size, size))
-    column = 0
-    for field, components in (("v", used), ("stress", pairs)):
-        for comp in components:
-            for a in range(n):
-                state.assign(base)
-                if field == "v":
-                    v = state.particle_v.numpy()
-                    v[a, comp] += eps
-                    state.particle_v.assign(v)
-                else:
-                    s = state.particle_stress.numpy()
-                    s[a, comp[0], comp[1]] += eps * unit
-                    if comp[0] != comp[1]:
-                        s[a, comp[1], comp[0]] += eps * unit
-                    state.particle_stress.assign(s)
-                solver.step(state, out, 0.0, dt)
-                jacobian[:, column] = (pack(out) - rest) / eps
-                column += 1
+    jacobian = np.zeros((rest.size, rest.size))
+    for column, ((field, comp), a) in enumerate((f, a) for f in fields for a in range(n)):
+        state.assign(base)
+        perturb(field, comp, a)
+        solver.step(state, out, 0.0, dt)
+        jacobian[:, column] = (pack(out) - rest) / eps
     return jacobian

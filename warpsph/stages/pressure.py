@@ -39,6 +39,11 @@ from warpsph.stages.linear_solve import LinearSolver
 DRAINED_SURFACE_EIGENVALUE = 0.6
 """Real particles whose correction eigenvalue is below this are on a free surface (≈0.5 on a flat
 face, ≈0.66 one row in): with a drained free surface their pore pressure is zero."""
+DRAINED_SURFACE_RATIO = 0.05
+"""k ρ/Δt (the Darcy part of the projection's Laplacian over its Δt/ρ part) from which a drained free
+surface is stable at every Courant number measured: below 0.040, 0.034, 0.024 and 0.020 at Courant
+0.05–0.1, 0.25, 0.5 and 0.9 (whatever E and K_w) one step about rest has a real eigenvalue above 1,
+a pore pressure mode under the surface (docs/method.md, *Known limits*)."""
 ETA = 0.1
 """Morris regularisation η/h."""
 
@@ -412,12 +417,14 @@ class PressureProjection:
         self.iterations: list[int] = []
         self.residuals: list[float] = []
         self.failures = 0
+        self._surface_checked = False
 
     def reset_statistics(self) -> None:
         """Forget the solves so far (the runner's warm-up step is not part of the run)."""
         self.iterations.clear()
         self.residuals.clear()
         self.failures = 0
+        self._surface_checked = False  # its warning, if any, comes again with the run's first step
 
     def _face_factor(self) -> np.ndarray:
         """½ per plane a particle lies on: the share of its cell inside the body. Scaling its row by
@@ -521,6 +528,9 @@ class PressureProjection:
                [0, n, self.on_drained, self.drained_value, rf.smallest_eigenvalue, drained_surface, si.particle_q,
                 m.particle_material, pw.material_water_density, gravity, wp.float64(pw.water_table), self.dirichlet,
                 self.value, x], dev)  # fmt: skip
+        if not self._surface_checked:
+            self._surface_checked = True
+            self._warn_unstable_drained_surface(si, dt)
         args = self._plane_args()
         launch_rows(self.k["assemble"], n,
                [h, real(dt), wp.float64(self.scale), n, nl.offsets, nl.indices, si.particle_q, m.particle_origin,
@@ -548,6 +558,25 @@ class PressureProjection:
         self.update_ghosts(si.particle_q, self.dp, homogeneous=True, momentum=True)
         self._gradient(si, self.dp, homogeneous=True, momentum=True)
         launch(self.k["correct_velocity"], n, [0, real(dt), self.grad, so.particle_density, so.particle_v], dev)
+
+    def _warn_unstable_drained_surface(self, si, dt: float) -> None:
+        """Warn once if the drained free surface found at the first step is less permeable than it can
+        be stably: k ρ/Δt below ``DRAINED_SURFACE_RATIO`` on one of its particles."""
+        m = self.model
+        n = m.particle_count
+        surface = (self.dirichlet.numpy()[:n] == 1) & (self.on_drained.numpy()[:n] == 0)
+        if not surface.any():
+            return
+        material = m.particle_material.numpy()[:n][surface]
+        ratio = m.pore.material_permeability.numpy()[material] * si.particle_density.numpy()[:n][surface] / dt
+        worst = int(np.argmin(ratio))
+        if ratio[worst] < DRAINED_SURFACE_RATIO:
+            name = list(m.scene.materials)[material[worst]]
+            courant = m.scene.simulation.courant * ratio[worst] / DRAINED_SURFACE_RATIO
+            warnings.warn(f"material {name!r} under a drained free surface: k ρ/Δt = {ratio[worst]:.3g} is below "
+                          f"{DRAINED_SURFACE_RATIO}, where the pore pressure under such a surface can grow without "
+                          "bound (docs/method.md, Known limits); drain that face with a plane (a zero-traction load "
+                          f"with drainage) or lower simulation.courant to {courant:.2g}", stacklevel=2)
 
     def _gradient(self, state, values, homogeneous: bool, momentum: bool = False) -> None:
         """``self.grad`` = ∇values at the real particles via the virtual points (geometry of ``state``);
