@@ -39,11 +39,13 @@ from warpsph.stages.linear_solve import LinearSolver
 DRAINED_SURFACE_EIGENVALUE = 0.6
 """Real particles whose correction eigenvalue is below this are on a free surface (≈0.5 on a flat
 face, ≈0.66 one row in): with a drained free surface their pore pressure is zero."""
-DRAINED_SURFACE_RATIO = 0.05
-"""k ρ/Δt (the Darcy part of the projection's Laplacian over its Δt/ρ part) from which a drained free
-surface is stable at every Courant number measured: below 0.040, 0.034, 0.024 and 0.020 at Courant
-0.05–0.1, 0.25, 0.5 and 0.9 (whatever E and K_w) one step about rest has a real eigenvalue above 1,
-a pore pressure mode under the surface (docs/method.md, *Known limits*)."""
+STABLE_SURFACE_RATIO = {"drained": 0.05, "impermeable": 0.01}
+"""k ρ/Δt (the Darcy part of the projection's Laplacian over its Δt/ρ part) from which a free surface
+of each kind is stable at every Courant number measured. One step about rest has a real eigenvalue
+above 1, a pore pressure mode under the surface, below 0.040, 0.034, 0.024 and 0.020 at Courant
+0.05–0.1, 0.25, 0.5 and 0.9 for a drained surface (whatever E and K_w), and below about 0.003 at
+Courant 0.5 and 0.005 at 0.9 for an impermeable one, growing at up to 70 /s and 9 /s
+(docs/method.md, *Known limits*)."""
 ETA = 0.1
 """Morris regularisation η/h."""
 
@@ -530,7 +532,7 @@ class PressureProjection:
                 self.value, x], dev)  # fmt: skip
         if not self._surface_checked:
             self._surface_checked = True
-            self._warn_unstable_drained_surface(si, dt)
+            self._warn_unstable_free_surface(si, dt)
         args = self._plane_args()
         launch_rows(self.k["assemble"], n,
                [h, real(dt), wp.float64(self.scale), n, nl.offsets, nl.indices, si.particle_q, m.particle_origin,
@@ -559,24 +561,30 @@ class PressureProjection:
         self._gradient(si, self.dp, homogeneous=True, momentum=True)
         launch(self.k["correct_velocity"], n, [0, real(dt), self.grad, so.particle_density, so.particle_v], dev)
 
-    def _warn_unstable_drained_surface(self, si, dt: float) -> None:
-        """Warn once if the drained free surface found at the first step is less permeable than it can
-        be stably: k ρ/Δt below ``DRAINED_SURFACE_RATIO`` on one of its particles."""
+    def _warn_unstable_free_surface(self, si, dt: float) -> None:
+        """Warn once if the free surface found at the first step is less permeable than it can be
+        stably: k ρ/Δt below ``STABLE_SURFACE_RATIO`` of its kind on one of its particles (a drained
+        surface's Dirichlet rows, an impermeable one's particles that gain the exterior pairs)."""
         m = self.model
         n = m.particle_count
-        surface = (self.dirichlet.numpy()[:n] == 1) & (self.on_drained.numpy()[:n] == 0)
+        kind = self.settings.free_surface
+        if kind == "drained":
+            surface = (self.dirichlet.numpy()[:n] == 1) & (self.on_drained.numpy()[:n] == 0)
+        else:
+            surface = self.solver.real_fits.smallest_eigenvalue.numpy()[:n] < self.exterior_threshold
         if not surface.any():
             return
         material = m.particle_material.numpy()[:n][surface]
         ratio = m.pore.material_permeability.numpy()[material] * si.particle_density.numpy()[:n][surface] / dt
-        worst = int(np.argmin(ratio))
-        if ratio[worst] < DRAINED_SURFACE_RATIO:
+        worst, limit = int(np.argmin(ratio)), STABLE_SURFACE_RATIO[kind]
+        if ratio[worst] < limit:
             name = list(m.scene.materials)[material[worst]]
-            courant = m.scene.simulation.courant * ratio[worst] / DRAINED_SURFACE_RATIO
-            warnings.warn(f"material {name!r} under a drained free surface: k ρ/Δt = {ratio[worst]:.3g} is below "
-                          f"{DRAINED_SURFACE_RATIO}, where the pore pressure under such a surface can grow without "
-                          "bound (docs/method.md, Known limits); drain that face with a plane (a zero-traction load "
-                          f"with drainage) or lower simulation.courant to {courant:.2g}", stacklevel=2)
+            courant = m.scene.simulation.courant * ratio[worst] / limit
+            warnings.warn(f"material {name!r} under a free surface (pressure.free_surface = {kind!r}): k ρ/Δt = "
+                          f"{ratio[worst]:.3g} is below "
+                          f"{limit}, where the pore pressure under such a surface can grow without bound "
+                          "(docs/method.md, Known limits); make that face a plane (a zero-traction load with its "
+                          f"drainage) or lower simulation.courant to {courant:.2g}", stacklevel=2)
 
     def _gradient(self, state, values, homogeneous: bool, momentum: bool = False) -> None:
         """``self.grad`` = ∇values at the real particles via the virtual points (geometry of ``state``);
