@@ -223,7 +223,7 @@ class Run:
                 "solver": self.scene.pressure.solver, "tolerance": self.scene.pressure.tolerance,
                 "iterations_total": int(its.sum()), "iterations_mean": float(its.mean()),
                 "iterations_max": int(its.max()), "residual_max": float(np.max(projection.residuals)),
-                "missed_tolerance": projection.failures,
+                "missed_tolerance": projection.failures, "free_surface_warning": projection.surface_warning,
             }  # fmt: skip
         (self.out / RECORD).write_text(json.dumps(record, indent=2, default=str))
 

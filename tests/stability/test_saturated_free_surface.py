@@ -13,6 +13,7 @@ in that regime. A 1D column, 1 m, Δx = 0.1 m, no gravity, K_w = 2.2e9 Pa: k ρ/
 k_h = 1e-4 m/s, 0.0047 at 1e-5 m/s.
 """
 
+import json
 import warnings
 
 import numpy as np
@@ -20,6 +21,7 @@ import pytest
 
 from stability_tools import expected_failure, step_jacobian
 from warpsph.builder import build
+from warpsph.runner import Run
 from warpsph.scene import Body, Boundary, Effects, Material, PressureSolver, Scene, Simulation
 from warpsph.solver import Solver
 
@@ -75,3 +77,11 @@ def test_the_unstable_regime_is_announced():
     assert "'impermeable'" in impermeable and "k ρ/Δt = 0.000473 is below 0.01" in impermeable
     assert first_step_warnings(2e-4, "drained") == []  # k ρ/Δt = 0.095
     assert first_step_warnings(1e-4, "impermeable") == []
+
+
+def test_the_run_record_keeps_the_warning(tmp_path):
+    scene = column(1e-5, "drained")
+    scene.simulation.end_time = 5 * scene.time_step
+    Run(scene, tmp_path).run()
+    record = json.loads((tmp_path / "run.json").read_text())
+    assert "k ρ/Δt = 0.00473" in record["pressure_solve"]["free_surface_warning"]

@@ -420,6 +420,8 @@ class PressureProjection:
         self.residuals: list[float] = []
         self.failures = 0
         self._surface_checked = False
+        self.surface_warning: str | None = None
+        """The warning of ``_warn_unstable_free_surface``, if the run's free surface is in that regime."""
 
     def reset_statistics(self) -> None:
         """Forget the solves so far (the runner's warm-up step is not part of the run)."""
@@ -427,6 +429,7 @@ class PressureProjection:
         self.residuals.clear()
         self.failures = 0
         self._surface_checked = False  # its warning, if any, comes again with the run's first step
+        self.surface_warning = None
 
     def _face_factor(self) -> np.ndarray:
         """½ per plane a particle lies on: the share of its cell inside the body. Scaling its row by
@@ -580,11 +583,12 @@ class PressureProjection:
         if ratio[worst] < limit:
             name = list(m.scene.materials)[material[worst]]
             courant = m.scene.simulation.courant * ratio[worst] / limit
-            warnings.warn(f"material {name!r} under a free surface (pressure.free_surface = {kind!r}): k ρ/Δt = "
-                          f"{ratio[worst]:.3g} is below "
-                          f"{limit}, where the pore pressure under such a surface can grow without bound "
-                          "(docs/method.md, Known limits); make that face a plane (a zero-traction load with its "
-                          f"drainage) or lower simulation.courant to {courant:.2g}", stacklevel=2)
+            self.surface_warning = (
+                f"material {name!r} under a free surface (pressure.free_surface = {kind!r}): k ρ/Δt = "
+                f"{ratio[worst]:.3g} is below {limit}, where the pore pressure under such a surface can grow without "
+                "bound (docs/method.md, Known limits); make that face a plane (a zero-traction load with its "
+                f"drainage) or lower simulation.courant to {courant:.2g}")
+            warnings.warn(self.surface_warning, stacklevel=2)
 
     def _gradient(self, state, values, homogeneous: bool, momentum: bool = False) -> None:
         """``self.grad`` = ∇values at the real particles via the virtual points (geometry of ``state``);
