@@ -134,9 +134,9 @@ class Solver:
         nl = self.virtual_to_real
         launch_rows(half_step, m.virtual_count,
                [real(m.h), real(dt), m.spec.vec3(*m.gravity), real(m.scene.simulation.free_surface_threshold),
-                self._water_on_surface, nl.offsets, nl.indices, si.particle_q, m.particle_mass, si.particle_density, si.particle_v,
-                si.particle_stress, *self.real_fits.arrays(), si.virtual_q, si.virtual_density, m.virtual_material,
-                *self.virtual_fits.arrays(),
+                self._water_on_surface, nl.offsets, nl.indices, si.particle_q, m.particle_mass, si.particle_density,
+                si.particle_v, si.particle_stress, *self.real_fits.arrays(), si.virtual_q, si.virtual_density,
+                m.virtual_material, *self.virtual_fits.arrays(),
                 m.material_lambda, m.material_shear, self.virtual_v, self.virtual_stress, so.virtual_q,
                 so.virtual_density, si.particle_pore_pressure, self._water_density, self.virtual_p,
                 si.particle_plastic_strain, m.material_plasticity, self.virtual_rate], m.device)  # fmt: skip
@@ -171,8 +171,8 @@ class Solver:
         own = int(m.scene.simulation.particle_velocity == "own")
         launch_rows(full_step, m.particle_count,
                [real(m.h), real(dt), m.spec.vec3(*m.gravity), real(m.scene.simulation.free_surface_threshold),
-                self._water_on_surface, real(m.scene.simulation.artificial_viscosity), nl.offsets, nl.indices, si.virtual_q,
-                m.virtual_mass, si.virtual_density, self.virtual_v, self.virtual_stress,
+                self._water_on_surface, real(m.scene.simulation.artificial_viscosity), nl.offsets, nl.indices,
+                si.virtual_q, m.virtual_mass, si.virtual_density, self.virtual_v, self.virtual_stress,
                 *self.virtual_fits.arrays()[:4], *self.real_fits.arrays(), si.particle_q, si.particle_v,
                 si.particle_stress, si.particle_density, m.particle_material, m.material_lambda, m.material_shear,
                 m.material_wave_speed, so.particle_q, so.particle_v, so.particle_stress, so.particle_density,
@@ -182,11 +182,7 @@ class Solver:
 
     @property
     def _water_on_surface(self):
-        """1 where the band's surface term pushes with the pore pressure too (an impermeable free
-        surface, as if it were zero outside), 0 at a drained free surface (its Dirichlet rows hold the
-        zero pressure, which the fitted gradient already carries; pushing the surface with the
-        particle's own pressure as well fed back on it: docs/method.md, *Drained free surfaces*)."""
-        return self.model.spec.real(float(self.model.scene.pressure.free_surface == "impermeable"))
+        return self.model.spec.real(self.projection.water_on_surface if self.projection is not None else 0.0)
 
     @property
     def _water_density(self):

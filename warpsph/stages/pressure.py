@@ -399,6 +399,11 @@ class PressureProjection:
         impermeable_surface = settings.free_surface == "impermeable"
         self.exterior_threshold = m.scene.simulation.free_surface_threshold if impermeable_surface else 0.0
         """Correction eigenvalue below which a particle gains the exterior pairs (0: none do)."""
+        self.water_on_surface = 1.0 if impermeable_surface else 0.0
+        """Weight of the pore pressure in the surface band's weak traction term: 1 at an impermeable free
+        surface (pushed as if the pressure were zero outside), 0 at a drained one, whose Dirichlet rows
+        hold the zero pressure that the fitted gradient already carries (pushing with the particle's
+        own pressure as well fed back on it: docs/method.md, *Drained free surfaces*)."""
         self.div_v_star = wp.zeros(n, dtype=f64, device=dev)
         self.virtual_v_star = wp.zeros(nv, dtype=m.spec.vec3, device=dev)
         self.p_old = wp.zeros(ne, dtype=f64, device=dev)
