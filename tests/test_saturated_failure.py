@@ -251,7 +251,8 @@ HYDROSTATIC_BASE = 1000.0 * 9.81 * 2.2
 
 
 def layer_excess_pressure(tmp_path_factory, text, name):
-    """Largest |excess pore pressure| [Pa] of a saturated geostatic layer at rest, at 0.1, 0.2 and 0.3 s."""
+    """Largest |excess pore pressure| [Pa] of a saturated geostatic layer at rest, per frame after the
+    start: 0.1, 0.2 and 0.3 s, then the run's closing frame."""
     from warpsph.scene_toml import parse_scene
 
     out = tmp_path_factory.mktemp(name)
