@@ -392,6 +392,10 @@ class PressureSolver:
     """Level y [m] of the hydrostatic reference, p = ρ_w g (water_table − y); None: the top of the bodies."""
     free_surface: str = "drained"
     """Free surfaces found from the particles: "drained" (p = 0) or "impermeable"."""
+    stabilisation: float = 1.0
+    """Weight θ ≥ 0 of the roughness damping: the Δt/ρ part of the projection acts on pⁿ − θ(pⁿ − Πpⁿ),
+    Πp the linear fit of p over the neighbours off drained rows, which removes the pore pressure's
+    odd-even part that nothing else damps at low permeability; 0 turns it off."""
 
 
 @dataclass

@@ -27,8 +27,10 @@ body, ≈0.07 at a 3D box corner), the fit falls back to Shepard + uncorrected g
 
 
 @functools.cache
-def operator_functions(spec: Spec):
-    """Warp functions ``fit_operator``, ``fit_weights``, ``invert_correction``, ``smallest_eigenvalue``."""
+def fit_parts(spec: Spec):
+    """Warp functions ``add_to_fit`` (one source's share of w0, wr, g0, M) and ``finish_fit`` (those
+    sums → (c, inv_den, Minv, e, corrected)): the two halves of ``fit_operator``, for fits over a
+    chosen subset of a neighbour list."""
     real, vec3, mat33 = spec.real, spec.vec3, spec.mat33
     W, grad_W = smoothing_functions(spec)
     mask = spec.axis_mask
@@ -38,7 +40,6 @@ def operator_functions(spec: Spec):
         real(0.0), real(0.0), real(1.0 - mask[2]),
     )  # fmt: skip
     zero = real(0.0)
-    half = real(0.5)
     min_det = real(MIN_MEAN_EIGENVALUE**spec.dim)
 
     @wp.func
@@ -48,6 +49,43 @@ def operator_functions(spec: Spec):
         if wp.abs(wp.determinant(Mreg)) > min_det:
             return wp.inverse(Mreg), True
         return wp.identity(3, dtype=real), False
+
+    @wp.func
+    def add_to_fit(r: vec3, vol: real, h: real, w0: real, wr: vec3, g0: vec3, M: mat33):
+        """The sums with a source of volume ``vol`` at offset r = x_b − x added."""
+        w = W(wp.length(r), h) * vol
+        g = grad_W(-r, h) * vol
+        return w0 + w, wr + w * r, g0 + g, M + wp.outer(g, r)
+
+    @wp.func
+    def finish_fit(w0: real, wr: vec3, g0: vec3, M: mat33):
+        Minv, corrected = invert_correction(M)
+        c = vec3(zero, zero, zero)
+        if corrected:
+            c = wp.transpose(Minv) * wr
+        den = w0 - wp.dot(c, g0)
+        if den <= real(0.1) * w0:
+            corrected = False
+            Minv = wp.identity(3, dtype=real)
+            c = vec3(zero, zero, zero)
+            den = w0
+        inv_den = zero
+        if den > zero:
+            inv_den = real(1.0) / den
+        e = Minv * g0
+        return c, inv_den, Minv, e, corrected
+
+    return add_to_fit, finish_fit, invert_correction, unused
+
+
+@functools.cache
+def operator_functions(spec: Spec):
+    """Warp functions ``fit_operator``, ``fit_weights``, ``invert_correction``, ``smallest_eigenvalue``."""
+    real, vec3, mat33 = spec.real, spec.vec3, spec.mat33
+    W, grad_W = smoothing_functions(spec)
+    add_to_fit, finish_fit, invert_correction, unused = fit_parts(spec)
+    zero = real(0.0)
+    half = real(0.5)
 
     @wp.func
     def fit_operator(
@@ -66,28 +104,8 @@ def operator_functions(spec: Spec):
         M = mat33(zero)
         for k in range(start, end):
             b = nbr[k]
-            r = xs[b] - x
-            vol = ms[b] / rhos[b]
-            w = W(wp.length(r), h) * vol
-            g = grad_W(-r, h) * vol
-            w0 += w
-            wr += w * r
-            g0 += g
-            M += wp.outer(g, r)
-        Minv, corrected = invert_correction(M)
-        c = vec3(zero, zero, zero)
-        if corrected:
-            c = wp.transpose(Minv) * wr
-        den = w0 - wp.dot(c, g0)
-        if den <= real(0.1) * w0:
-            corrected = False
-            Minv = wp.identity(3, dtype=real)
-            c = vec3(zero, zero, zero)
-            den = w0
-        inv_den = zero
-        if den > zero:
-            inv_den = real(1.0) / den
-        e = Minv * g0
+            w0, wr, g0, M = add_to_fit(xs[b] - x, ms[b] / rhos[b], h, w0, wr, g0, M)
+        c, inv_den, Minv, e, corrected = finish_fit(w0, wr, g0, M)
         return c, inv_den, Minv, e, M, corrected
 
     @wp.func

@@ -16,7 +16,9 @@ Dirichlet rows (drained planes, drained free surface) are eliminated; ghosts ent
 pressure parity of their planes: even at impermeable planes, odd about the prescribed pressure at
 drained planes, and with the prescribed gradient ∂p/∂n = q̄/k at inflow planes. In the Δt/ρ part the
 increment is odd across impermeable traction planes, and an impermeable free surface gains the
-pairs its particles lack outside, with a zero increment (docs/method.md, Saturated soil).
+pairs its particles lack outside, with a zero increment (docs/method.md, Saturated soil). Within
+reach of a free surface the Δt/ρ part's right-hand side acts on pⁿ − θ(pⁿ − Πpⁿ), damping the pore
+pressure's odd-even part (``roughness``; docs/method.md, *Pore-pressure roughness damping*).
 """
 
 import functools
@@ -31,7 +33,7 @@ from warpsph.launching import launch, launch_rows
 from warpsph.model import PLANE_TRACTION, Model
 from warpsph.scene import EXTENT_TOLERANCE
 from warpsph.sph.kernels import kernel_derivative
-from warpsph.sph.operators import operator_functions
+from warpsph.sph.operators import fit_parts, operator_functions
 from warpsph.sph.spec import Spec
 from warpsph.stages.boundaries import plane_functions
 from warpsph.stages.linear_solve import LinearSolver
@@ -41,11 +43,17 @@ DRAINED_SURFACE_EIGENVALUE = 0.6
 face, ≈0.66 one row in): with a drained free surface their pore pressure is zero."""
 STABLE_SURFACE_RATIO = {"drained": 0.05, "impermeable": 0.01}
 """k ρ/Δt (the Darcy part of the projection's Laplacian over its Δt/ρ part) from which a free surface
-of each kind is stable at every Courant number measured. One step about rest has a real eigenvalue
-above 1, a pore pressure mode under the surface, below 0.040, 0.034, 0.024 and 0.020 at Courant
-0.05–0.1, 0.25, 0.5 and 0.9 for a drained surface (whatever E and K_w), and below about 0.003 at
-Courant 0.5 and 0.005 at 0.9 for an impermeable one, growing at up to 70 /s and 9 /s
-(docs/method.md, *Known limits*)."""
+of each kind is stable at every Courant number measured without the roughness damping
+(``pressure.stabilisation`` = 0; also used below 1, where it was not measured). One step about rest
+then has a real eigenvalue above 1, a pore pressure mode under the surface, below 0.040, 0.034,
+0.024 and 0.020 at Courant 0.05–0.1, 0.25, 0.5 and 0.9 for a drained surface (whatever E and K_w),
+and below about 0.003 at Courant 0.5 and 0.005 at 0.9 for an impermeable one, growing at up to
+70 /s and 9 /s (docs/method.md, *Known limits*)."""
+DAMPED_STABLE_SURFACE_RATIO = {"drained": 0.01, "impermeable": 0.0}
+"""The same with the roughness damping at full weight (θ = 1): an impermeable surface stable down to
+k_h = 1e-12 m/s at Courant 0.1–0.9 (1D column); a drained one stable at k ρ/Δt = 0.0071, 0.0014
+and 0.00079 at Courant 0.1, 0.5 and 0.9, with a slow mode below (0.015–0.28 /s in 1D, 1.7 /s in a
+2D column at k_h = 1e-8 m/s) instead of 52 /s."""
 ETA = 0.1
 """Morris regularisation η/h."""
 
@@ -82,6 +90,7 @@ def _kernels(spec: Spec):
     real, vec3 = spec.real, spec.vec3
     f64 = wp.float64
     _fit, fit_weights, _inv, _eig = operator_functions(spec)
+    add_to_fit, finish_fit, _inv, _unused = fit_parts(spec)
     from warpsph.sph.kernels import smoothing_functions
 
     _W, grad_W = smoothing_functions(spec)
@@ -283,6 +292,91 @@ def _kernels(spec: Spec):
         if dirichlet[a] == 1:
             p_start[a] = value[a]
 
+    @wp.func
+    def fit_source(j: int, a: int, n: int, p: wp.array(dtype=f64), dirichlet: wp.array(dtype=wp.int32),
+                   origin: wp.array(dtype=vec3), material: wp.array(dtype=wp.int32),
+                   permeability: wp.array(dtype=f64), water_density: wp.array(dtype=f64), gravity: vec3,
+                   ghost_source: wp.array(dtype=wp.int32), ghost_chain: wp.array(dtype=wp.vec3i),
+                   q: wp.array(dtype=vec3), plane_axis: wp.array(dtype=wp.int32),
+                   plane_position: wp.array(dtype=real), plane_sign: wp.array(dtype=real),
+                   plane_kind: wp.array(dtype=wp.int32), drainage: wp.array(dtype=wp.int32),
+                   drained_lo: wp.array(dtype=vec3), drained_hi: wp.array(dtype=vec3),
+                   drained_pressure: wp.array(dtype=f64), head: wp.array(dtype=f64), inflow: wp.array(dtype=f64),
+                   water_table: f64):  # fmt: skip
+        """(1, p_j) if neighbour j takes part in the roughness fit of particle a, else (0, 0): owned
+        particles off the Dirichlet rows, and the ghosts of such particles across planes that mirror
+        the pressure evenly (impermeable, inflow); a drained plane's odd images would show its jump."""
+        if j < n:
+            if dirichlet[j] == 1:
+                return 0, zero
+            return 1, p[j]
+        g = j - n
+        src = ghost_source[g]
+        if dirichlet[src] == 1:
+            return 0, zero
+        mat = material[src]
+        s, c, s_m, c_m = ghost_affine(g, ghost_source, ghost_chain, q, real(0.5) * (origin[a] + origin[src]),
+                                      plane_axis, plane_position, plane_sign, plane_kind, drainage, drained_lo,
+                                      drained_hi, drained_pressure, head, inflow, water_density[mat],
+                                      permeability[mat], gravity, water_table, 0)  # fmt: skip
+        if s < zero:
+            return 0, zero
+        return 1, s * p[src] + c
+
+    @wp.kernel(enable_backward=False, module="unique")
+    def roughness(
+        first: int, h: real, n: int, offsets: wp.array(dtype=wp.int32), nbr: wp.array(dtype=wp.int32),
+        q: wp.array(dtype=vec3), origin: wp.array(dtype=vec3), mass: wp.array(dtype=real),
+        density: wp.array(dtype=real), material: wp.array(dtype=wp.int32), permeability: wp.array(dtype=f64),
+        water_density: wp.array(dtype=f64), gravity: vec3, ghost_source: wp.array(dtype=wp.int32),
+        ghost_chain: wp.array(dtype=wp.vec3i), plane_axis: wp.array(dtype=wp.int32),
+        plane_position: wp.array(dtype=real), plane_sign: wp.array(dtype=real), plane_kind: wp.array(dtype=wp.int32),
+        drainage: wp.array(dtype=wp.int32), drained_lo: wp.array(dtype=vec3), drained_hi: wp.array(dtype=vec3),
+        drained_pressure: wp.array(dtype=f64), head: wp.array(dtype=f64), inflow: wp.array(dtype=f64), water_table: f64,
+        eigenvalue: wp.array(dtype=real), surface_band: real, dirichlet: wp.array(dtype=wp.int32),
+        p: wp.array(dtype=f64), out: wp.array(dtype=f64), near_surface: wp.array(dtype=wp.int32),
+    ):  # fmt: skip
+        """out = p − Πp [Pa]: Πp is the linear fit of p at the particle over itself and the neighbours
+        ``fit_source`` admits, so a drained boundary's jump is not seen and linear fields give zero;
+        0 on Dirichlet rows and where the fit is not corrected. near_surface = 1 in a free surface's
+        band and on the band's neighbours."""
+        a = first + wp.tid()
+        out[a] = zero
+        near_surface[a] = 0
+        if eigenvalue[a] < surface_band:
+            near_surface[a] = 1
+        for k in range(offsets[a], offsets[a + 1]):
+            j = nbr[k]
+            if j < n:
+                if eigenvalue[j] < surface_band:
+                    near_surface[a] = 1
+        if dirichlet[a] == 1:
+            return
+        # the value fit Σ V ψ p = (Σ V W p − c·Σ V g p)/den, summed with the fit's moments in one pass
+        x = q[a]
+        origin_a = vec3(real(0.0), real(0.0), real(0.0))
+        vol_a = mass[a] / density[a]
+        w0, wr, g0, M = add_to_fit(origin_a, vol_a, h, real(0.0), origin_a, origin_a, spec.mat33(real(0.0)))
+        wp_sum = f64(vol_a * _W(real(0.0), h)) * p[a]
+        gp_sum = wp.vec3d(zero, zero, zero)
+        for k in range(offsets[a], offsets[a + 1]):
+            j = nbr[k]
+            used, value = fit_source(j, a, n, p, dirichlet, origin, material, permeability, water_density, gravity,
+                                     ghost_source, ghost_chain, q, plane_axis, plane_position, plane_sign, plane_kind,
+                                     drainage, drained_lo, drained_hi, drained_pressure, head, inflow,
+                                     water_table)  # fmt: skip
+            if used == 1:
+                r = q[j] - x
+                vol = mass[j] / density[j]
+                w0, wr, g0, M = add_to_fit(r, vol, h, w0, wr, g0, M)
+                g = grad_W(-r, h) * vol
+                wp_sum += f64(_W(wp.length(r), h) * vol) * value
+                gp_sum += wp.vec3d(f64(g[0]), f64(g[1]), f64(g[2])) * value
+        c, inv_den, Minv, e, corrected = finish_fit(w0, wr, g0, M)
+        if corrected:
+            fit = (wp_sum - (f64(c[0]) * gp_sum[0] + f64(c[1]) * gp_sum[1] + f64(c[2]) * gp_sum[2])) * f64(inv_den)
+            out[a] = p[a] - fit
+
     @wp.kernel(enable_backward=False, module="unique")
     def assemble(
         first: int, h: real, dt: real, scale: f64, n: int, offsets: wp.array(dtype=wp.int32), nbr: wp.array(dtype=wp.int32),
@@ -296,8 +390,10 @@ def _kernels(spec: Spec):
         drained_pressure: wp.array(dtype=f64), head: wp.array(dtype=f64), inflow: wp.array(dtype=f64), water_table: f64,
         dirichlet: wp.array(dtype=wp.int32), value: wp.array(dtype=f64),
         face_factor: wp.array(dtype=f64), momentum_image: wp.array(dtype=f64), eigenvalue: wp.array(dtype=real),
-        exterior_threshold: real, lattice_sum: f64, weight: wp.array(dtype=f64), column: wp.array(dtype=wp.int32),
-        diag: wp.array(dtype=f64), rhs: wp.array(dtype=f64),
+        exterior_threshold: real, lattice_sum: f64, rough: wp.array(dtype=f64), near_surface: wp.array(dtype=wp.int32),
+        stabilisation: f64,
+        weight: wp.array(dtype=f64), column: wp.array(dtype=wp.int32), diag: wp.array(dtype=f64),
+        rhs: wp.array(dtype=f64),
     ):  # fmt: skip
         a = first + wp.tid()
         x = q[a]
@@ -345,6 +441,8 @@ def _kernels(spec: Spec):
             w_k = w - w_dt
             b += w_dt * (p_old[a] - (s_dt * p_old[col] + cst_dt))  # −V ∇·((Δt/ρ)∇pⁿ)
             b += w_k * cst + w_dt * cst_dt
+            if dirichlet[a] == 0 and dirichlet[col] == 0 and (near_surface[a] == 1 or near_surface[col] == 1):
+                b -= stabilisation * w_dt * (rough[a] - rough[col])  # damps p's roughness, drains nothing
             coefficient = w_k * s + w_dt * s_dt  # the ghost's parities folded in: A x = diag x − Σ weight x[column]
             if dirichlet[col] == 1:
                 b += coefficient * value[col]
@@ -377,7 +475,8 @@ def _kernels(spec: Spec):
     return dict(
         pressure_ghosts=pressure_ghosts, fit_vector_at_virtual=fit_vector_at_virtual,
         fit_scalar_at_virtual=fit_scalar_at_virtual, divergence_at_real=divergence_at_real,
-        gradient_at_real=gradient_at_real, correct_velocity=correct_velocity, darcy=darcy, mark_dirichlet=mark_dirichlet, assemble=assemble,
+        gradient_at_real=gradient_at_real, correct_velocity=correct_velocity, darcy=darcy, mark_dirichlet=mark_dirichlet,
+        roughness=roughness, assemble=assemble,
         difference=difference,
     )  # fmt: skip
 
@@ -414,6 +513,8 @@ class PressureProjection:
         self.value = wp.zeros(n, dtype=f64, device=dev)
         self.diag = wp.zeros(n, dtype=f64, device=dev)
         self.rhs = wp.zeros(n, dtype=f64, device=dev)
+        self.roughness = wp.zeros(n, dtype=f64, device=dev)
+        self.near_surface = wp.zeros(n, dtype=wp.int32, device=dev)
         self.linear = LinearSolver(n, dev, settings)
         self.weight = self.column = None
         on, val = self._drained_plane_particles()
@@ -542,6 +643,13 @@ class PressureProjection:
             self._surface_checked = True
             self._warn_unstable_free_surface(si, dt)
         args = self._plane_args()
+        if self.settings.stabilisation > 0.0:
+            launch_rows(self.k["roughness"], n,
+                   [h, n, nl.offsets, nl.indices, si.particle_q, m.particle_origin, m.particle_mass,
+                    si.particle_density, m.particle_material, pw.material_permeability, pw.material_water_density,
+                    gravity, m.particle_ghost_source, m.particle_ghost_planes, *args, wp.float64(pw.water_table),
+                    rf.smallest_eigenvalue, real(m.scene.simulation.free_surface_threshold), self.dirichlet,
+                    self.p_old, self.roughness, self.near_surface], dev)  # fmt: skip
         launch_rows(self.k["assemble"], n,
                [h, real(dt), wp.float64(self.scale), n, nl.offsets, nl.indices, si.particle_q, m.particle_origin,
                 m.particle_mass,
@@ -549,8 +657,8 @@ class PressureProjection:
                 pw.material_water_density, gravity, so.particle_v, self.div_v_star, self.p_old,
                 m.particle_ghost_source, m.particle_ghost_planes, *args, wp.float64(pw.water_table), self.dirichlet,
                 self.value, self.face_factor, self.momentum_image, rf.smallest_eigenvalue,
-                real(self.exterior_threshold), wp.float64(self.lattice_sum), self.weight, self.column, self.diag,
-                self.rhs], dev)  # fmt: skip
+                real(self.exterior_threshold), wp.float64(self.lattice_sum), self.roughness, self.near_surface,
+                wp.float64(self.settings.stabilisation), self.weight, self.column, self.diag, self.rhs], dev)  # fmt: skip
         iterations, rel = self.linear.solve(self._matrix(), self.rhs, x)
         self.iterations.append(iterations)
         self.residuals.append(rel)
@@ -571,20 +679,23 @@ class PressureProjection:
 
     def _warn_unstable_free_surface(self, si, dt: float) -> None:
         """Warn once if the free surface found at the first step is less permeable than it can be
-        stably: k ρ/Δt below ``STABLE_SURFACE_RATIO`` of its kind on one of its particles (a drained
-        surface's Dirichlet rows, an impermeable one's particles that gain the exterior pairs)."""
+        stably: k ρ/Δt below the limit of its kind (``DAMPED_STABLE_SURFACE_RATIO`` with θ = 1, else
+        ``STABLE_SURFACE_RATIO``) on one of its particles (a drained surface's Dirichlet rows, an
+        impermeable one's particles that gain the exterior pairs)."""
         m = self.model
         n = m.particle_count
         kind = self.settings.free_surface
+        limits = DAMPED_STABLE_SURFACE_RATIO if self.settings.stabilisation == 1.0 else STABLE_SURFACE_RATIO
+        limit = limits[kind]
         if kind == "drained":
             surface = (self.dirichlet.numpy()[:n] == 1) & (self.on_drained.numpy()[:n] == 0)
         else:
             surface = self.solver.real_fits.smallest_eigenvalue.numpy()[:n] < self.exterior_threshold
-        if not surface.any():
+        if not surface.any() or limit == 0.0:
             return
         material = m.particle_material.numpy()[:n][surface]
         ratio = m.pore.material_permeability.numpy()[material] * si.particle_density.numpy()[:n][surface] / dt
-        worst, limit = int(np.argmin(ratio)), STABLE_SURFACE_RATIO[kind]
+        worst = int(np.argmin(ratio))
         if ratio[worst] < limit:
             name = list(m.scene.materials)[material[worst]]
             courant = m.scene.simulation.courant * ratio[worst] / limit
