@@ -393,9 +393,14 @@ class PressureSolver:
     free_surface: str = "drained"
     """Free surfaces found from the particles: "drained" (p = 0) or "impermeable"."""
     stabilisation: float = 1.0
-    """Weight θ ≥ 0 of the roughness damping: the Δt/ρ part of the projection acts on pⁿ − θ(pⁿ − Πpⁿ),
-    Πp the linear fit of p over the neighbours off drained rows, which removes the pore pressure's
-    odd-even part that nothing else damps at low permeability; 0 turns it off."""
+    """Weight θ in [0, 1] of the pore-pressure roughness damping within reach of a free surface: there
+    the Δt/ρ part of the projection acts on pⁿ − θ(pⁿ − Πpⁿ), Πp the linear fit of p over the
+    neighbours off drained rows, which removes the odd-even part that nothing else damps at low
+    permeability; 0 turns it off."""
+    interior_stabilisation: float = 0.0
+    """The same weight everywhere else (away from free surfaces): small values (0.02–0.05) keep
+    plane-bounded 2D domains stable at low permeability, at the cost of smearing the pressure's
+    boundary layers at drained and loaded faces over a few rows (docs/method.md)."""
 
 
 @dataclass

@@ -307,12 +307,12 @@ def _kernels(spec: Spec):
         particles off the Dirichlet rows, and the ghosts of such particles across planes that mirror
         the pressure evenly (impermeable, inflow); a drained plane's odd images would show its jump."""
         if j < n:
-            if dirichlet[j] == 1:
+            if dirichlet[j] == 1 or material[j] != material[a]:
                 return 0, zero
             return 1, p[j]
         g = j - n
         src = ghost_source[g]
-        if dirichlet[src] == 1:
+        if dirichlet[src] == 1 or material[src] != material[a]:
             return 0, zero
         mat = material[src]
         s, c, s_m, c_m = ghost_affine(g, ghost_source, ghost_chain, q, real(0.5) * (origin[a] + origin[src]),
@@ -391,7 +391,7 @@ def _kernels(spec: Spec):
         dirichlet: wp.array(dtype=wp.int32), value: wp.array(dtype=f64),
         face_factor: wp.array(dtype=f64), momentum_image: wp.array(dtype=f64), eigenvalue: wp.array(dtype=real),
         exterior_threshold: real, lattice_sum: f64, rough: wp.array(dtype=f64), near_surface: wp.array(dtype=wp.int32),
-        stabilisation: f64,
+        stabilisation: f64, interior_stabilisation: f64,
         weight: wp.array(dtype=f64), column: wp.array(dtype=wp.int32), diag: wp.array(dtype=f64),
         rhs: wp.array(dtype=f64),
     ):  # fmt: skip
@@ -441,8 +441,11 @@ def _kernels(spec: Spec):
             w_k = w - w_dt
             b += w_dt * (p_old[a] - (s_dt * p_old[col] + cst_dt))  # −V ∇·((Δt/ρ)∇pⁿ)
             b += w_k * cst + w_dt * cst_dt
-            if dirichlet[a] == 0 and dirichlet[col] == 0 and (near_surface[a] == 1 or near_surface[col] == 1):
-                b -= stabilisation * w_dt * (rough[a] - rough[col])  # damps p's roughness, drains nothing
+            if dirichlet[a] == 0 and dirichlet[col] == 0 and mat_j == mat:  # damps p's roughness, drains nothing
+                theta = interior_stabilisation
+                if near_surface[a] == 1 or near_surface[col] == 1:
+                    theta = stabilisation
+                b -= theta * w_dt * (rough[a] - rough[col])
             coefficient = w_k * s + w_dt * s_dt  # the ghost's parities folded in: A x = diag x − Σ weight x[column]
             if dirichlet[col] == 1:
                 b += coefficient * value[col]
@@ -643,7 +646,7 @@ class PressureProjection:
             self._surface_checked = True
             self._warn_unstable_free_surface(si, dt)
         args = self._plane_args()
-        if self.settings.stabilisation > 0.0:
+        if self.settings.stabilisation > 0.0 or self.settings.interior_stabilisation > 0.0:
             launch_rows(self.k["roughness"], n,
                    [h, n, nl.offsets, nl.indices, si.particle_q, m.particle_origin, m.particle_mass,
                     si.particle_density, m.particle_material, pw.material_permeability, pw.material_water_density,
@@ -658,7 +661,7 @@ class PressureProjection:
                 m.particle_ghost_source, m.particle_ghost_planes, *args, wp.float64(pw.water_table), self.dirichlet,
                 self.value, self.face_factor, self.momentum_image, rf.smallest_eigenvalue,
                 real(self.exterior_threshold), wp.float64(self.lattice_sum), self.roughness, self.near_surface,
-                wp.float64(self.settings.stabilisation), self.weight, self.column, self.diag, self.rhs], dev)  # fmt: skip
+                wp.float64(self.settings.stabilisation), wp.float64(self.settings.interior_stabilisation), self.weight, self.column, self.diag, self.rhs], dev)  # fmt: skip
         iterations, rel = self.linear.solve(self._matrix(), self.rhs, x)
         self.iterations.append(iterations)
         self.residuals.append(rel)
@@ -703,7 +706,9 @@ class PressureProjection:
                 f"material {name!r} under a free surface (pressure.free_surface = {kind!r}): k ρ/Δt = "
                 f"{ratio[worst]:.3g} is below {limit}, where the pore pressure under such a surface can grow without "
                 "bound (docs/method.md, Known limits); make that face a plane (a zero-traction load with its "
-                f"drainage) or lower simulation.courant to {courant:.2g}")
+                f"drainage), lower simulation.courant to {courant:.2g}"
+                + (" or set pressure.interior_stabilisation (0.05 removed the slow mode measured)"
+                   if kind == "drained" and self.settings.stabilisation == 1.0 else ""))
             warnings.warn(self.surface_warning, stacklevel=2)
 
     def _gradient(self, state, values, homogeneous: bool, momentum: bool = False) -> None:
