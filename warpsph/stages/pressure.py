@@ -324,6 +324,21 @@ def _kernels(spec: Spec):
         return 1, s * p[src] + c
 
     @wp.kernel(enable_backward=False, module="unique")
+    def mark_near_surface(first: int, n: int, offsets: wp.array(dtype=wp.int32), nbr: wp.array(dtype=wp.int32),
+                          eigenvalue: wp.array(dtype=real), surface_band: real,
+                          near_surface: wp.array(dtype=wp.int32)):  # fmt: skip
+        """near_surface = 1 in a free surface's band (correction eigenvalue below ``surface_band``) and
+        on the band's neighbours: the pairs the roughness damping acts on at full weight."""
+        a = first + wp.tid()
+        near = eigenvalue[a] < surface_band
+        for k in range(offsets[a], offsets[a + 1]):
+            j = nbr[k]
+            if j < n:
+                if eigenvalue[j] < surface_band:
+                    near = True
+        near_surface[a] = wp.where(near, 1, 0)
+
+    @wp.kernel(enable_backward=False, module="unique")
     def roughness(
         first: int, h: real, n: int, offsets: wp.array(dtype=wp.int32), nbr: wp.array(dtype=wp.int32),
         q: wp.array(dtype=vec3), origin: wp.array(dtype=vec3), mass: wp.array(dtype=real),
@@ -333,24 +348,22 @@ def _kernels(spec: Spec):
         plane_position: wp.array(dtype=real), plane_sign: wp.array(dtype=real), plane_kind: wp.array(dtype=wp.int32),
         drainage: wp.array(dtype=wp.int32), drained_lo: wp.array(dtype=vec3), drained_hi: wp.array(dtype=vec3),
         drained_pressure: wp.array(dtype=f64), head: wp.array(dtype=f64), inflow: wp.array(dtype=f64), water_table: f64,
-        eigenvalue: wp.array(dtype=real), surface_band: real, dirichlet: wp.array(dtype=wp.int32),
-        p: wp.array(dtype=f64), out: wp.array(dtype=f64), near_surface: wp.array(dtype=wp.int32),
+        near_surface: wp.array(dtype=wp.int32), everywhere: int, dirichlet: wp.array(dtype=wp.int32),
+        p: wp.array(dtype=f64), out: wp.array(dtype=f64),
     ):  # fmt: skip
         """out = p − Πp [Pa]: Πp is the linear fit of p at the particle over itself and the neighbours
         ``fit_source`` admits, so a drained boundary's jump is not seen and linear fields give zero;
-        0 on Dirichlet rows and where the fit is not corrected. near_surface = 1 in a free surface's
-        band and on the band's neighbours."""
+        0 on Dirichlet rows, where the fit is not corrected, and (unless ``everywhere``) where no
+        neighbour is near a surface, since no damped pair reads it there."""
         a = first + wp.tid()
         out[a] = zero
-        near_surface[a] = 0
-        if eigenvalue[a] < surface_band:
-            near_surface[a] = 1
+        needed = everywhere == 1 or near_surface[a] == 1
         for k in range(offsets[a], offsets[a + 1]):
             j = nbr[k]
             if j < n:
-                if eigenvalue[j] < surface_band:
-                    near_surface[a] = 1
-        if dirichlet[a] == 1:
+                if near_surface[j] == 1:
+                    needed = True
+        if dirichlet[a] == 1 or not needed:
             return
         # the value fit Σ V ψ p = (Σ V W p − c·Σ V g p)/den, summed with the fit's moments in one pass
         x = q[a]
@@ -479,7 +492,7 @@ def _kernels(spec: Spec):
         pressure_ghosts=pressure_ghosts, fit_vector_at_virtual=fit_vector_at_virtual,
         fit_scalar_at_virtual=fit_scalar_at_virtual, divergence_at_real=divergence_at_real,
         gradient_at_real=gradient_at_real, correct_velocity=correct_velocity, darcy=darcy, mark_dirichlet=mark_dirichlet,
-        roughness=roughness, assemble=assemble,
+        mark_near_surface=mark_near_surface, roughness=roughness, assemble=assemble,
         difference=difference,
     )  # fmt: skip
 
@@ -647,12 +660,15 @@ class PressureProjection:
             self._warn_unstable_free_surface(si, dt)
         args = self._plane_args()
         if self.settings.stabilisation > 0.0 or self.settings.interior_stabilisation > 0.0:
+            launch_rows(self.k["mark_near_surface"], n,
+                        [n, nl.offsets, nl.indices, rf.smallest_eigenvalue,
+                         real(m.scene.simulation.free_surface_threshold), self.near_surface], dev)  # fmt: skip
             launch_rows(self.k["roughness"], n,
                    [h, n, nl.offsets, nl.indices, si.particle_q, m.particle_origin, m.particle_mass,
                     si.particle_density, m.particle_material, pw.material_permeability, pw.material_water_density,
                     gravity, m.particle_ghost_source, m.particle_ghost_planes, *args, wp.float64(pw.water_table),
-                    rf.smallest_eigenvalue, real(m.scene.simulation.free_surface_threshold), self.dirichlet,
-                    self.p_old, self.roughness, self.near_surface], dev)  # fmt: skip
+                    self.near_surface, int(self.settings.interior_stabilisation > 0.0), self.dirichlet, self.p_old,
+                    self.roughness], dev)  # fmt: skip
         launch_rows(self.k["assemble"], n,
                [h, real(dt), wp.float64(self.scale), n, nl.offsets, nl.indices, si.particle_q, m.particle_origin,
                 m.particle_mass,
