@@ -1,0 +1,466 @@
+"""Warp kernels of the pore-pressure projection (float64 throughout) and the Morris Laplacian's
+lattice constants; :mod:`warpsph.stages.pressure` assembles, solves and corrects with them.
+
+Kernels: ``pressure_ghosts`` (ghost values with each plane's pressure parity), the real → virtual →
+real fits of the projection (``fit_vector_at_virtual``, ``fit_scalar_at_virtual``,
+``divergence_at_real``, ``gradient_at_real``), ``correct_velocity``, ``darcy``, ``mark_dirichlet``
+(drained rows), the roughness damping's ``mark_near_surface`` and ``roughness``, ``assemble`` (the
+matrix rows and right-hand side on the real–real list) and ``difference``.
+"""
+
+import functools
+import math
+
+import numpy as np
+import warp as wp
+
+from warpsph.model import PLANE_TRACTION
+from warpsph.sph.kernels import kernel_derivative, smoothing_functions
+from warpsph.sph.operators import fit_parts, operator_functions
+from warpsph.sph.spec import Spec
+from warpsph.stages.boundaries import plane_functions
+
+DRAINED_SURFACE_EIGENVALUE = 0.6
+"""Real particles whose correction eigenvalue is below this are on a free surface (≈0.5 on a flat
+face, ≈0.66 one row in): with a drained free surface their pore pressure is zero."""
+ETA = 0.1
+"""Morris regularisation η/h."""
+
+
+def _lattice_distances(dim: int, ratio: float) -> np.ndarray:
+    """Distances from a point of the lattice of spacing 1 to the others within the support 2h (h = ratio)."""
+    span = int(math.ceil(2.0 * ratio))
+    axes = [np.arange(-span, span + 1)] * dim
+    grid = np.stack(np.meshgrid(*axes, indexing="ij"), -1).reshape(-1, dim).astype(float)
+    r = np.linalg.norm(grid, axis=1)
+    return r[(r > 0) & (r < 2.0 * ratio)]
+
+
+def laplacian_scale(kind: str, dim: int, ratio: float) -> float:
+    """Constant that makes the Morris Laplacian exact for |x|² on the lattice of spacing 1 (h = ratio)."""
+    r = _lattice_distances(dim, ratio)
+    # the operator is Σ V (κ_a + κ_b)(p_a − p_b)(x_ab·∇W)/(r² + η²); for κ = 1 and p = |x|²
+    # (p_a − p_b = −r², x_ab·∇W = r W'(r)) it must give ∇²p = 2 dim
+    morris = 2.0 * np.sum(-(r**2) * r * kernel_derivative(kind, dim, r, ratio) / (r**2 + (ETA * ratio) ** 2))
+    return 2.0 * dim / morris
+
+
+def lattice_morris_sum(kind: str, dim: int, dx: float, ratio: float) -> float:
+    """Σ_b V_b m_ab [1/m²] over a full lattice neighbourhood (V_b = Δx^dim), m_ab the scaled Morris weight
+    −(x_ab·∇W_ab)/(r² + η²): what a particle's pair weights sum to when no neighbour is missing."""
+    r = _lattice_distances(dim, ratio) * dx
+    h = ratio * dx
+    weights = -r * kernel_derivative(kind, dim, r, h) / (r**2 + (ETA * h) ** 2)
+    return float(dx**dim * laplacian_scale(kind, dim, ratio) * np.sum(weights))
+
+
+@functools.cache
+def pressure_kernels(spec: Spec):
+    """The projection's Warp kernels for ``spec``, by name."""
+    real, vec3 = spec.real, spec.vec3
+    f64 = wp.float64
+    _fit, fit_weights, _inv, _eig = operator_functions(spec)
+    add_to_fit, finish_fit, _inv, _unused = fit_parts(spec)
+
+    _W, grad_W = smoothing_functions(spec)
+    _traction, drainage_here = plane_functions(spec)
+    zero = f64(0.0)
+
+    @wp.func
+    def plane_excess(p: int, x: vec3, water_density: f64, gravity: vec3, water_table: f64,
+                     drained_pressure: wp.array(dtype=f64), head: wp.array(dtype=f64)):  # fmt: skip
+        """Prescribed excess pore pressure of drained plane p at point x [Pa]."""
+        rho_g = water_density * f64(wp.length(gravity))
+        total = drained_pressure[p]
+        if not wp.isnan(head[p]):
+            total = rho_g * (head[p] - f64(x[1]))
+        hydro = water_density * (f64(gravity[0]) * f64(x[0]) + f64(gravity[1]) * (f64(x[1]) - water_table)
+                                 + f64(gravity[2]) * f64(x[2]))  # fmt: skip
+        return total - hydro
+
+    @wp.func
+    def ghost_affine(g: int, source: wp.array(dtype=wp.int32), chain: wp.array(dtype=wp.vec3i),
+                     q: wp.array(dtype=vec3), where: vec3, plane_axis: wp.array(dtype=wp.int32),
+                     plane_position: wp.array(dtype=real), plane_sign: wp.array(dtype=real),
+                     plane_kind: wp.array(dtype=wp.int32), drainage: wp.array(dtype=wp.int32),
+                     drained_lo: wp.array(dtype=vec3), drained_hi: wp.array(dtype=vec3),
+                     drained_pressure: wp.array(dtype=f64), head: wp.array(dtype=f64), inflow: wp.array(dtype=f64),
+                     water_density: f64, k: f64, gravity: vec3, water_table: f64, homogeneous: int):  # fmt: skip
+        """(s, c, s_m, c_m) with p_ghost = s p_source + c for ghost g (c = 0 when ``homogeneous``);
+        each plane drains (odd parity) where the initial position ``where`` lies in its drained extent.
+
+        (s_m, c_m) is the parity of the pressure *increment* in the velocity correction: odd also at
+        impermeable traction planes, whose total traction t̄ = σ′n − p n is prescribed, so that the
+        correction −(Δt/ρ)∇δp leaves it unchanged (the effective stress takes up δp in the next
+        predictor); water still does not cross them ((s, c) even)."""
+        x = q[source[g]]
+        s = f64(1.0)
+        c = zero
+        s_m = f64(1.0)
+        c_m = zero
+        planes = chain[g]
+        for i in range(3):
+            p = planes[i]
+            if p >= 0:
+                m = plane_axis[p]
+                kind = drainage_here(p, where, m, drainage, drained_lo, drained_hi)
+                traction = plane_kind[p] == PLANE_TRACTION
+                if kind == 1:
+                    s = -s
+                    c = -c
+                    s_m = -s_m
+                    c_m = -c_m
+                    if homogeneous == 0:
+                        xp = x
+                        xp[m] = plane_position[p]
+                        excess = f64(2.0) * plane_excess(p, xp, water_density, gravity, water_table,
+                                                         drained_pressure, head)  # fmt: skip
+                        c += excess
+                        c_m += excess
+                else:
+                    if kind == 2 and homogeneous == 0 and k > zero:
+                        depth = f64(plane_sign[p] * (plane_position[p] - x[m]))
+                        c += f64(2.0) * depth * inflow[p] / k
+                        if not traction:
+                            c_m += f64(2.0) * depth * inflow[p] / k
+                    if traction:
+                        s_m = -s_m
+                        c_m = -c_m
+                x[m] = real(2.0) * plane_position[p] - x[m]
+        return s, c, s_m, c_m
+
+    @wp.kernel(enable_backward=False, module="unique")
+    def pressure_ghosts(
+        n_owned: int, source: wp.array(dtype=wp.int32), chain: wp.array(dtype=wp.vec3i), q: wp.array(dtype=vec3),
+        origin: wp.array(dtype=vec3), material: wp.array(dtype=wp.int32), plane_axis: wp.array(dtype=wp.int32),
+        plane_position: wp.array(dtype=real), plane_sign: wp.array(dtype=real), plane_kind: wp.array(dtype=wp.int32),
+        drainage: wp.array(dtype=wp.int32), drained_lo: wp.array(dtype=vec3), drained_hi: wp.array(dtype=vec3),
+        drained_pressure: wp.array(dtype=f64), head: wp.array(dtype=f64), inflow: wp.array(dtype=f64),
+        water_density: wp.array(dtype=f64), permeability: wp.array(dtype=f64), gravity: vec3, water_table: f64,
+        homogeneous: int, momentum: int, p: wp.array(dtype=f64),
+    ):  # fmt: skip
+        g = wp.tid()
+        src = source[g]
+        mat = material[src]
+        s, c, s_m, c_m = ghost_affine(g, source, chain, q, origin[src], plane_axis, plane_position, plane_sign,
+                                      plane_kind, drainage, drained_lo, drained_hi, drained_pressure, head, inflow,
+                                      water_density[mat], permeability[mat], gravity, water_table,
+                                      homogeneous)  # fmt: skip
+        if momentum == 1:
+            s = s_m
+            c = c_m
+        p[n_owned + g] = s * p[src] + c
+
+    @wp.kernel(enable_backward=False, module="unique")
+    def fit_vector_at_virtual(
+        first: int, h: real, offsets: wp.array(dtype=wp.int32), nbr: wp.array(dtype=wp.int32), vq: wp.array(dtype=vec3),
+        c: wp.array(dtype=vec3), inv_den: wp.array(dtype=real), minv: wp.array(dtype=wp.types.matrix((3, 3), real)),
+        xs: wp.array(dtype=vec3), ms: wp.array(dtype=real), rhos: wp.array(dtype=real), values: wp.array(dtype=vec3),
+        out: wp.array(dtype=vec3),
+    ):  # fmt: skip
+        i = first + wp.tid()
+        x = vq[i]
+        acc = vec3(real(0.0), real(0.0), real(0.0))
+        for k in range(offsets[i], offsets[i + 1]):
+            b = nbr[k]
+            psi, phi = fit_weights(xs[b] - x, h, c[i], inv_den[i], minv[i])
+            acc += (ms[b] / rhos[b] * psi) * values[b]
+        out[i] = acc
+
+    @wp.kernel(enable_backward=False, module="unique")
+    def fit_scalar_at_virtual(
+        first: int, h: real, offsets: wp.array(dtype=wp.int32), nbr: wp.array(dtype=wp.int32), vq: wp.array(dtype=vec3),
+        c: wp.array(dtype=vec3), inv_den: wp.array(dtype=real), minv: wp.array(dtype=wp.types.matrix((3, 3), real)),
+        xs: wp.array(dtype=vec3), ms: wp.array(dtype=real), rhos: wp.array(dtype=real), values: wp.array(dtype=f64),
+        out: wp.array(dtype=f64),
+    ):  # fmt: skip
+        i = first + wp.tid()
+        x = vq[i]
+        acc = zero
+        for k in range(offsets[i], offsets[i + 1]):
+            b = nbr[k]
+            psi, phi = fit_weights(xs[b] - x, h, c[i], inv_den[i], minv[i])
+            acc += f64(ms[b] / rhos[b] * psi) * values[b]
+        out[i] = acc
+
+    @wp.kernel(enable_backward=False, module="unique")
+    def divergence_at_real(
+        first: int, h: real, offsets: wp.array(dtype=wp.int32), nbr: wp.array(dtype=wp.int32), q: wp.array(dtype=vec3),
+        c: wp.array(dtype=vec3), inv_den: wp.array(dtype=real), minv: wp.array(dtype=wp.types.matrix((3, 3), real)),
+        e: wp.array(dtype=vec3), xs: wp.array(dtype=vec3), ms: wp.array(dtype=real), rhos: wp.array(dtype=real),
+        values: wp.array(dtype=vec3), out: wp.array(dtype=f64),
+    ):  # fmt: skip
+        a = first + wp.tid()
+        x = q[a]
+        fit = vec3(real(0.0), real(0.0), real(0.0))
+        div = zero
+        for k in range(offsets[a], offsets[a + 1]):
+            b = nbr[k]
+            vol = ms[b] / rhos[b]
+            psi, phi = fit_weights(xs[b] - x, h, c[a], inv_den[a], minv[a])
+            fit += (vol * psi) * values[b]
+            div += f64(vol * wp.dot(phi, values[b]))
+        out[a] = div - f64(wp.dot(e[a], fit))
+
+    @wp.kernel(enable_backward=False, module="unique")
+    def gradient_at_real(
+        first: int, h: real, offsets: wp.array(dtype=wp.int32), nbr: wp.array(dtype=wp.int32), q: wp.array(dtype=vec3),
+        c: wp.array(dtype=vec3), inv_den: wp.array(dtype=real), minv: wp.array(dtype=wp.types.matrix((3, 3), real)),
+        e: wp.array(dtype=vec3), xs: wp.array(dtype=vec3), ms: wp.array(dtype=real), rhos: wp.array(dtype=real),
+        values: wp.array(dtype=f64), out: wp.array(dtype=wp.vec3d),
+    ):  # fmt: skip
+        """∇f at real particles fitted from the virtual points' f."""
+        a = first + wp.tid()
+        x = q[a]
+        fit = zero
+        grad = wp.vec3d(zero, zero, zero)
+        for k in range(offsets[a], offsets[a + 1]):
+            b = nbr[k]
+            vol = ms[b] / rhos[b]
+            psi, phi = fit_weights(xs[b] - x, h, c[a], inv_den[a], minv[a])
+            fit += f64(vol * psi) * values[b]
+            grad += wp.vec3d(f64(phi[0]), f64(phi[1]), f64(phi[2])) * (f64(vol) * values[b])
+        ea = e[a]
+        out[a] = grad - wp.vec3d(f64(ea[0]), f64(ea[1]), f64(ea[2])) * fit
+
+    @wp.kernel(enable_backward=False, module="unique")
+    def correct_velocity(first: int, dt: real, grad_dp: wp.array(dtype=wp.vec3d), density: wp.array(dtype=real),
+                         v: wp.array(dtype=vec3)):  # fmt: skip
+        """v −= (Δt/ρ) ∇Δp."""
+        a = first + wp.tid()
+        g = grad_dp[a] * (f64(dt) / f64(density[a]))
+        v[a] = v[a] - vec3(real(g[0]), real(g[1]), real(g[2]))
+
+    @wp.kernel(enable_backward=False, module="unique")
+    def darcy(grad_p: wp.array(dtype=wp.vec3d), material: wp.array(dtype=wp.int32),
+              permeability: wp.array(dtype=f64), w: wp.array(dtype=wp.vec3d)):  # fmt: skip
+        """w = −k ∇p_excess [m/s]."""
+        a = wp.tid()
+        w[a] = -permeability[material[a]] * grad_p[a]
+
+    @wp.kernel(enable_backward=False, module="unique")
+    def mark_dirichlet(
+        first: int, n: int, on_drained: wp.array(dtype=wp.int32), drained_value: wp.array(dtype=f64),
+        eigenvalue: wp.array(dtype=real), drained_surface: int, q: wp.array(dtype=vec3),
+        material: wp.array(dtype=wp.int32), water_density: wp.array(dtype=f64), gravity: vec3, water_table: f64,
+        dirichlet: wp.array(dtype=wp.int32), value: wp.array(dtype=f64), p_start: wp.array(dtype=f64),
+    ):  # fmt: skip
+        """Drained rows and their values; a drained row's unknown starts the solve at its value
+        (decoupled, it then stays there exactly)."""
+        a = first + wp.tid()
+        dirichlet[a] = 0
+        value[a] = zero
+        if on_drained[a] == 1:
+            dirichlet[a] = 1
+            value[a] = drained_value[a]
+        elif drained_surface == 1 and eigenvalue[a] < real(DRAINED_SURFACE_EIGENVALUE):
+            x = q[a]
+            dirichlet[a] = 1  # p = 0: the excess is minus the hydrostatic pressure
+            value[a] = -water_density[material[a]] * (f64(gravity[0]) * f64(x[0])
+                       + f64(gravity[1]) * (f64(x[1]) - water_table) + f64(gravity[2]) * f64(x[2]))  # fmt: skip
+        if dirichlet[a] == 1:
+            p_start[a] = value[a]
+
+    @wp.func
+    def fit_source(j: int, a: int, n: int, p: wp.array(dtype=f64), dirichlet: wp.array(dtype=wp.int32),
+                   origin: wp.array(dtype=vec3), material: wp.array(dtype=wp.int32),
+                   permeability: wp.array(dtype=f64), water_density: wp.array(dtype=f64), gravity: vec3,
+                   ghost_source: wp.array(dtype=wp.int32), ghost_chain: wp.array(dtype=wp.vec3i),
+                   q: wp.array(dtype=vec3), plane_axis: wp.array(dtype=wp.int32),
+                   plane_position: wp.array(dtype=real), plane_sign: wp.array(dtype=real),
+                   plane_kind: wp.array(dtype=wp.int32), drainage: wp.array(dtype=wp.int32),
+                   drained_lo: wp.array(dtype=vec3), drained_hi: wp.array(dtype=vec3),
+                   drained_pressure: wp.array(dtype=f64), head: wp.array(dtype=f64), inflow: wp.array(dtype=f64),
+                   water_table: f64):  # fmt: skip
+        """(1, p_j) if neighbour j takes part in the roughness fit of particle a, else (0, 0): owned
+        particles off the Dirichlet rows, and the ghosts of such particles across planes that mirror
+        the pressure evenly (impermeable, inflow); a drained plane's odd images would show its jump."""
+        if j < n:
+            if dirichlet[j] == 1 or material[j] != material[a]:
+                return 0, zero
+            return 1, p[j]
+        g = j - n
+        src = ghost_source[g]
+        if dirichlet[src] == 1 or material[src] != material[a]:
+            return 0, zero
+        mat = material[src]
+        s, c, s_m, c_m = ghost_affine(g, ghost_source, ghost_chain, q, real(0.5) * (origin[a] + origin[src]),
+                                      plane_axis, plane_position, plane_sign, plane_kind, drainage, drained_lo,
+                                      drained_hi, drained_pressure, head, inflow, water_density[mat],
+                                      permeability[mat], gravity, water_table, 0)  # fmt: skip
+        if s < zero:
+            return 0, zero
+        return 1, s * p[src] + c
+
+    @wp.kernel(enable_backward=False, module="unique")
+    def mark_near_surface(first: int, n: int, offsets: wp.array(dtype=wp.int32), nbr: wp.array(dtype=wp.int32),
+                          eigenvalue: wp.array(dtype=real), surface_band: real,
+                          near_surface: wp.array(dtype=wp.int32)):  # fmt: skip
+        """near_surface = 1 in a free surface's band (correction eigenvalue below ``surface_band``) and
+        on the band's neighbours: the pairs the roughness damping acts on at full weight."""
+        a = first + wp.tid()
+        near = eigenvalue[a] < surface_band
+        for k in range(offsets[a], offsets[a + 1]):
+            j = nbr[k]
+            if j < n:
+                if eigenvalue[j] < surface_band:
+                    near = True
+        near_surface[a] = wp.where(near, 1, 0)
+
+    @wp.kernel(enable_backward=False, module="unique")
+    def roughness(
+        first: int, h: real, n: int, offsets: wp.array(dtype=wp.int32), nbr: wp.array(dtype=wp.int32),
+        q: wp.array(dtype=vec3), origin: wp.array(dtype=vec3), mass: wp.array(dtype=real),
+        density: wp.array(dtype=real), material: wp.array(dtype=wp.int32), permeability: wp.array(dtype=f64),
+        water_density: wp.array(dtype=f64), gravity: vec3, ghost_source: wp.array(dtype=wp.int32),
+        ghost_chain: wp.array(dtype=wp.vec3i), plane_axis: wp.array(dtype=wp.int32),
+        plane_position: wp.array(dtype=real), plane_sign: wp.array(dtype=real), plane_kind: wp.array(dtype=wp.int32),
+        drainage: wp.array(dtype=wp.int32), drained_lo: wp.array(dtype=vec3), drained_hi: wp.array(dtype=vec3),
+        drained_pressure: wp.array(dtype=f64), head: wp.array(dtype=f64), inflow: wp.array(dtype=f64), water_table: f64,
+        near_surface: wp.array(dtype=wp.int32), everywhere: int, dirichlet: wp.array(dtype=wp.int32),
+        p: wp.array(dtype=f64), out: wp.array(dtype=f64),
+    ):  # fmt: skip
+        """out = p − Πp [Pa]: Πp is the linear fit of p at the particle over itself and the neighbours
+        ``fit_source`` admits, so a drained boundary's jump is not seen and linear fields give zero;
+        0 on Dirichlet rows, where the fit is not corrected, and (unless ``everywhere``) where no
+        neighbour is near a surface, since no damped pair reads it there."""
+        a = first + wp.tid()
+        out[a] = zero
+        needed = everywhere == 1 or near_surface[a] == 1
+        for k in range(offsets[a], offsets[a + 1]):
+            j = nbr[k]
+            if j < n:
+                if near_surface[j] == 1:
+                    needed = True
+        if dirichlet[a] == 1 or not needed:
+            return
+        # the value fit Σ V ψ p = (Σ V W p − c·Σ V g p)/den, summed with the fit's moments in one pass
+        x = q[a]
+        origin_a = vec3(real(0.0), real(0.0), real(0.0))
+        vol_a = mass[a] / density[a]
+        w0, wr, g0, M = add_to_fit(origin_a, vol_a, h, real(0.0), origin_a, origin_a, spec.mat33(real(0.0)))
+        wp_sum = f64(vol_a * _W(real(0.0), h)) * p[a]
+        gp_sum = wp.vec3d(zero, zero, zero)
+        for k in range(offsets[a], offsets[a + 1]):
+            j = nbr[k]
+            used, value = fit_source(j, a, n, p, dirichlet, origin, material, permeability, water_density, gravity,
+                                     ghost_source, ghost_chain, q, plane_axis, plane_position, plane_sign, plane_kind,
+                                     drainage, drained_lo, drained_hi, drained_pressure, head, inflow,
+                                     water_table)  # fmt: skip
+            if used == 1:
+                r = q[j] - x
+                vol = mass[j] / density[j]
+                w0, wr, g0, M = add_to_fit(r, vol, h, w0, wr, g0, M)
+                g = grad_W(-r, h) * vol
+                wp_sum += f64(_W(wp.length(r), h) * vol) * value
+                gp_sum += wp.vec3d(f64(g[0]), f64(g[1]), f64(g[2])) * value
+        c, inv_den, Minv, e, corrected = finish_fit(w0, wr, g0, M)
+        if corrected:
+            fit = (wp_sum - (f64(c[0]) * gp_sum[0] + f64(c[1]) * gp_sum[1] + f64(c[2]) * gp_sum[2])) * f64(inv_den)
+            out[a] = p[a] - fit
+
+    @wp.kernel(enable_backward=False, module="unique")
+    def assemble(
+        first: int, h: real, dt: real, scale: f64, n: int, offsets: wp.array(dtype=wp.int32), nbr: wp.array(dtype=wp.int32),
+        q: wp.array(dtype=vec3), origin: wp.array(dtype=vec3), mass: wp.array(dtype=real),
+        density: wp.array(dtype=real), material: wp.array(dtype=wp.int32), permeability: wp.array(dtype=f64), inv_biot: wp.array(dtype=f64),
+        water_density: wp.array(dtype=f64), gravity: vec3, v_star: wp.array(dtype=vec3),
+        div_v_star: wp.array(dtype=f64), p_old: wp.array(dtype=f64), ghost_source: wp.array(dtype=wp.int32),
+        ghost_chain: wp.array(dtype=wp.vec3i), plane_axis: wp.array(dtype=wp.int32),
+        plane_position: wp.array(dtype=real), plane_sign: wp.array(dtype=real), plane_kind: wp.array(dtype=wp.int32),
+        drainage: wp.array(dtype=wp.int32), drained_lo: wp.array(dtype=vec3), drained_hi: wp.array(dtype=vec3),
+        drained_pressure: wp.array(dtype=f64), head: wp.array(dtype=f64), inflow: wp.array(dtype=f64), water_table: f64,
+        dirichlet: wp.array(dtype=wp.int32), value: wp.array(dtype=f64),
+        face_factor: wp.array(dtype=f64), momentum_image: wp.array(dtype=f64), eigenvalue: wp.array(dtype=real),
+        exterior_threshold: real, lattice_sum: f64, rough: wp.array(dtype=f64), near_surface: wp.array(dtype=wp.int32),
+        stabilisation: f64, interior_stabilisation: f64,
+        weight: wp.array(dtype=f64), column: wp.array(dtype=wp.int32), diag: wp.array(dtype=f64),
+        rhs: wp.array(dtype=f64),
+    ):  # fmt: skip
+        a = first + wp.tid()
+        x = q[a]
+        vol_a = f64(mass[a] / density[a]) * face_factor[a]  # a particle on a plane owns half its cell
+        mat = material[a]
+        k_a = permeability[mat]
+        dt_rho_a = f64(dt) / f64(density[a])
+        d = vol_a * inv_biot[mat] / f64(dt)
+        b = d * p_old[a] - vol_a * div_v_star[a] - vol_a * inv_biot[mat] * water_density[mat] * f64(
+            wp.dot(gravity, v_star[a]))
+        eta2 = f64(ETA * ETA) * f64(h * h)
+        present = zero  # Σ_b V_b m_ab over the neighbours there are [1/m²]
+        for k in range(offsets[a], offsets[a + 1]):
+            j = nbr[k]
+            r = x - q[j]
+            morris = -f64(wp.dot(r, grad_W(r, h))) / (f64(wp.dot(r, r)) + eta2) * scale
+            vol_j = f64(mass[j] / density[j])
+            present += vol_j * morris
+            mat_j = material[j]
+            k_j = permeability[mat_j]
+            k_pair = zero  # twice the harmonic mean: flux continuity across layers of contrasting k
+            if k_a + k_j > zero:
+                k_pair = f64(4.0) * k_a * k_j / (k_a + k_j)
+            w = vol_a * vol_j * (k_pair + dt_rho_a + f64(dt) / f64(density[j])) * morris
+            w_dt = vol_a * vol_j * (dt_rho_a + f64(dt) / f64(density[j])) * morris
+            d += w
+            col = j
+            s = f64(1.0)  # Darcy parity (the k part) ...
+            cst = zero
+            s_dt = f64(1.0)  # ... and momentum parity (the Δt/ρ part) of a ghost: p_ghost = s p_col + cst
+            cst_dt = zero
+            if j >= n:
+                g = j - n
+                col = ghost_source[g]
+                # a pair meeting across a plane drains by its midpoint, as its mirror pair does: the
+                # matrix stays symmetric where a drained extent ends
+                s, cst, s_dt, cst_dt = ghost_affine(g, ghost_source, ghost_chain, q,
+                                                    real(0.5) * (origin[a] + origin[col]), plane_axis,
+                                                    plane_position, plane_sign, plane_kind, drainage, drained_lo,
+                                                    drained_hi, drained_pressure, head, inflow, water_density[mat_j],
+                                                    permeability[mat_j], gravity, water_table, 0)  # fmt: skip
+            # a neighbour on an impermeable traction plane is its own odd mirror in the Δt/ρ part
+            s_dt = s_dt * momentum_image[col]
+            cst_dt = cst_dt * momentum_image[col]
+            w_k = w - w_dt
+            b += w_dt * (p_old[a] - (s_dt * p_old[col] + cst_dt))  # −V ∇·((Δt/ρ)∇pⁿ)
+            b += w_k * cst + w_dt * cst_dt
+            if dirichlet[a] == 0 and dirichlet[col] == 0 and mat_j == mat:  # damps p's roughness, drains nothing
+                theta = interior_stabilisation
+                if near_surface[a] == 1 or near_surface[col] == 1:
+                    theta = stabilisation
+                b -= theta * w_dt * (rough[a] - rough[col])
+            coefficient = w_k * s + w_dt * s_dt  # the ghost's parities folded in: A x = diag x − Σ weight x[column]
+            if dirichlet[col] == 1:
+                b += coefficient * value[col]
+                coefficient = zero
+            if dirichlet[a] == 1:
+                coefficient = zero
+            weight[k] = coefficient
+            column[k] = col
+        if eigenvalue[a] < exterior_threshold and lattice_sum > present:
+            # impermeable free surface: the Δt/ρ part gains the pairs missing outside, with a zero
+            # increment there, as the predictor's surface term takes the pressure outside as zero
+            exterior = vol_a * f64(2.0) * dt_rho_a * (lattice_sum - present)
+            d += exterior
+            b += exterior * p_old[a]
+        if dirichlet[a] == 1:
+            # p = p̄, scaled by the diagonal the row would have: with a unit diagonal a drained head of
+            # kPa outweighed every other row's right-hand side in ‖b‖, the solve met its relative
+            # tolerance without an iteration and the pressure froze (a ponded column stopped at 65-350 Pa off)
+            if d == zero:
+                d = f64(1.0)
+            b = d * value[a]
+        diag[a] = d
+        rhs[a] = b
+
+    @wp.kernel(enable_backward=False, module="unique")
+    def difference(first: int, a_: wp.array(dtype=f64), b_: wp.array(dtype=f64), out: wp.array(dtype=f64)):
+        i = first + wp.tid()
+        out[i] = a_[i] - b_[i]
+
+    return dict(
+        pressure_ghosts=pressure_ghosts, fit_vector_at_virtual=fit_vector_at_virtual,
+        fit_scalar_at_virtual=fit_scalar_at_virtual, divergence_at_real=divergence_at_real,
+        gradient_at_real=gradient_at_real, correct_velocity=correct_velocity, darcy=darcy, mark_dirichlet=mark_dirichlet,
+        mark_near_surface=mark_near_surface, roughness=roughness, assemble=assemble,
+        difference=difference,
+    )  # fmt: skip
