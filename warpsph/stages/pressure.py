@@ -210,7 +210,7 @@ class PressureProjection:
         args = self._plane_args()
         if self.settings.stabilisation > 0.0 or self.settings.interior_stabilisation > 0.0:
             launch_rows(self.k["mark_near_surface"], n,
-                        [n, nl.offsets, nl.indices, rf.smallest_eigenvalue,
+                        [n, nl.offsets, nl.indices, m.particle_ghost_source, rf.smallest_eigenvalue,
                          real(m.scene.simulation.free_surface_threshold), self.near_surface], dev)  # fmt: skip
             launch_rows(self.k["roughness"], n,
                    [h, n, nl.offsets, nl.indices, si.particle_q, m.particle_origin, m.particle_mass,

@@ -262,6 +262,13 @@ def pressure_kernels(spec: Spec):
             p_start[a] = value[a]
 
     @wp.func
+    def source_of(j: int, n: int, ghost_source: wp.array(dtype=wp.int32)):
+        """The owned particle that neighbour j is or mirrors."""
+        if j < n:
+            return j
+        return ghost_source[j - n]
+
+    @wp.func
     def fit_source(j: int, a: int, n: int, p: wp.array(dtype=f64), dirichlet: wp.array(dtype=wp.int32),
                    origin: wp.array(dtype=vec3), material: wp.array(dtype=wp.int32),
                    permeability: wp.array(dtype=f64), water_density: wp.array(dtype=f64), gravity: vec3,
@@ -294,17 +301,17 @@ def pressure_kernels(spec: Spec):
 
     @wp.kernel(enable_backward=False, module="unique")
     def mark_near_surface(first: int, n: int, offsets: wp.array(dtype=wp.int32), nbr: wp.array(dtype=wp.int32),
-                          eigenvalue: wp.array(dtype=real), surface_band: real,
-                          near_surface: wp.array(dtype=wp.int32)):  # fmt: skip
+                          ghost_source: wp.array(dtype=wp.int32), eigenvalue: wp.array(dtype=real),
+                          surface_band: real, near_surface: wp.array(dtype=wp.int32)):  # fmt: skip
         """near_surface = 1 in a free surface's band (correction eigenvalue below ``surface_band``) and
-        on the band's neighbours: the pairs the roughness damping acts on at full weight."""
+        on the band's neighbours (a ghost stands for its source): the particles whose pairs the
+        roughness damping acts on at full weight."""
         a = first + wp.tid()
         near = eigenvalue[a] < surface_band
         for k in range(offsets[a], offsets[a + 1]):
-            j = nbr[k]
-            if j < n:
-                if eigenvalue[j] < surface_band:
-                    near = True
+            j = source_of(nbr[k], n, ghost_source)
+            if eigenvalue[j] < surface_band:
+                near = True
         near_surface[a] = wp.where(near, 1, 0)
 
     @wp.kernel(enable_backward=False, module="unique")
@@ -328,10 +335,8 @@ def pressure_kernels(spec: Spec):
         out[a] = zero
         needed = everywhere == 1 or near_surface[a] == 1
         for k in range(offsets[a], offsets[a + 1]):
-            j = nbr[k]
-            if j < n:
-                if near_surface[j] == 1:
-                    needed = True
+            if near_surface[source_of(nbr[k], n, ghost_source)] == 1:
+                needed = True
         if dirichlet[a] == 1 or not needed:
             return
         # the value fit Σ V ψ p = (Σ V W p − c·Σ V g p)/den, summed with the fit's moments in one pass
