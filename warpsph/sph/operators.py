@@ -52,10 +52,11 @@ def fit_parts(spec: Spec):
 
     @wp.func
     def add_to_fit(r: vec3, vol: real, h: real, w0: real, wr: vec3, g0: vec3, M: mat33):
-        """The sums with a source of volume ``vol`` at offset r = x_b − x added."""
+        """The sums with a source of volume ``vol`` at offset r = x_b − x added, and that source's
+        weights V W and V ∇W (for fits of a field summed in the same pass)."""
         w = W(wp.length(r), h) * vol
         g = grad_W(-r, h) * vol
-        return w0 + w, wr + w * r, g0 + g, M + wp.outer(g, r)
+        return w0 + w, wr + w * r, g0 + g, M + wp.outer(g, r), w, g
 
     @wp.func
     def finish_fit(w0: real, wr: vec3, g0: vec3, M: mat33):
@@ -104,7 +105,7 @@ def operator_functions(spec: Spec):
         M = mat33(zero)
         for k in range(start, end):
             b = nbr[k]
-            w0, wr, g0, M = add_to_fit(xs[b] - x, ms[b] / rhos[b], h, w0, wr, g0, M)
+            w0, wr, g0, M, w, g = add_to_fit(xs[b] - x, ms[b] / rhos[b], h, w0, wr, g0, M)
         c, inv_den, Minv, e, corrected = finish_fit(w0, wr, g0, M)
         return c, inv_den, Minv, e, M, corrected
 

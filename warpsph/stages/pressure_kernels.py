@@ -343,8 +343,8 @@ def pressure_kernels(spec: Spec):
         x = q[a]
         origin_a = vec3(real(0.0), real(0.0), real(0.0))
         vol_a = mass[a] / density[a]
-        w0, wr, g0, M = add_to_fit(origin_a, vol_a, h, real(0.0), origin_a, origin_a, spec.mat33(real(0.0)))
-        wp_sum = f64(vol_a * _W(real(0.0), h)) * p[a]
+        w0, wr, g0, M, w, g = add_to_fit(origin_a, vol_a, h, real(0.0), origin_a, origin_a, spec.mat33(real(0.0)))
+        wp_sum = f64(w) * p[a]
         gp_sum = wp.vec3d(zero, zero, zero)
         for k in range(offsets[a], offsets[a + 1]):
             j = nbr[k]
@@ -353,11 +353,8 @@ def pressure_kernels(spec: Spec):
                                      drainage, drained_lo, drained_hi, drained_pressure, head, inflow,
                                      water_table)  # fmt: skip
             if used == 1:
-                r = q[j] - x
-                vol = mass[j] / density[j]
-                w0, wr, g0, M = add_to_fit(r, vol, h, w0, wr, g0, M)
-                g = grad_W(-r, h) * vol
-                wp_sum += f64(_W(wp.length(r), h) * vol) * value
+                w0, wr, g0, M, w, g = add_to_fit(q[j] - x, mass[j] / density[j], h, w0, wr, g0, M)
+                wp_sum += f64(w) * value
                 gp_sum += wp.vec3d(f64(g[0]), f64(g[1]), f64(g[2])) * value
         c, inv_den, Minv, e, corrected = finish_fit(w0, wr, g0, M)
         if corrected:
