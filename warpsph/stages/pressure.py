@@ -18,7 +18,9 @@ drained planes, and with the prescribed gradient ∂p/∂n = q̄/k at inflow pla
 increment is odd across impermeable traction planes, and an impermeable free surface gains the
 pairs its particles lack outside, with a zero increment (docs/method.md, Saturated soil). Within
 reach of a free surface the Δt/ρ part's right-hand side acts on pⁿ − θ(pⁿ − Πpⁿ), damping the pore
-pressure's odd-even part (``roughness``; docs/method.md, *Pore-pressure roughness damping*).
+pressure's odd-even part (``roughness``; docs/method.md, *Pore-pressure roughness damping*). A
+particle on a loaded impermeable face, whose own increment moves nothing, takes the fit of its
+neighbours' pressures after the solve (``extrapolate_to_sealed_faces``; *Loaded impermeable faces*).
 """
 
 import warnings
@@ -85,7 +87,12 @@ class PressureProjection:
         on, val = self._drained_plane_particles()
         self.on_drained = wp.array(on, dtype=wp.int32, device=dev)
         self.face_factor = wp.array(self._face_factor(), dtype=f64, device=dev)
-        self.momentum_image = wp.array(self._momentum_image(on), dtype=f64, device=dev)
+        image = self._momentum_image(on)
+        self.momentum_image = wp.array(image, dtype=f64, device=dev)
+        self.sealed_face = wp.array((image == 0.0).astype(np.int32), dtype=wp.int32, device=dev)
+        """1 on the particles of impermeable traction planes (loaded sealed faces), whose pressure is
+        extrapolated from their neighbours after each solve (``extrapolate_to_sealed_faces``)."""
+        self.has_sealed_faces = bool(np.any(image == 0.0))
         self.drained_value = wp.array(val, dtype=f64, device=dev)
         self.iterations: list[int] = []
         self.residuals: list[float] = []
@@ -208,15 +215,16 @@ class PressureProjection:
             self._surface_checked = True
             self._warn_unstable_free_surface(si, dt)
         args = self._plane_args()
+        # the arguments of the pressure fits (``fitted_pressure``) ahead of each kernel's own
+        fit_args = [h, n, nl.offsets, nl.indices, si.particle_q, m.particle_origin, m.particle_mass, si.particle_density,
+                    m.particle_material, pw.material_permeability, pw.material_water_density, gravity,
+                    m.particle_ghost_source, m.particle_ghost_planes, *args, wp.float64(pw.water_table)]  # fmt: skip
         if self.settings.stabilisation > 0.0 or self.settings.interior_stabilisation > 0.0:
             launch_rows(self.k["mark_near_surface"], n,
                         [n, nl.offsets, nl.indices, m.particle_ghost_source, rf.smallest_eigenvalue,
                          real(m.scene.simulation.free_surface_threshold), self.near_surface], dev)  # fmt: skip
             launch_rows(self.k["roughness"], n,
-                   [h, n, nl.offsets, nl.indices, si.particle_q, m.particle_origin, m.particle_mass,
-                    si.particle_density, m.particle_material, pw.material_permeability, pw.material_water_density,
-                    gravity, m.particle_ghost_source, m.particle_ghost_planes, *args, wp.float64(pw.water_table),
-                    self.near_surface, int(self.settings.interior_stabilisation > 0.0), self.dirichlet, self.p_old,
+                   [*fit_args, self.near_surface, int(self.settings.interior_stabilisation > 0.0), self.dirichlet, self.p_old,
                     self.roughness], dev)  # fmt: skip
         launch_rows(self.k["assemble"], n,
                [h, real(dt), wp.float64(self.scale), n, nl.offsets, nl.indices, si.particle_q, m.particle_origin,
@@ -238,6 +246,10 @@ class PressureProjection:
                 raise SimulationError(message)
             if self.failures == 1:
                 warnings.warn(message + " (further misses are counted in run.json)", stacklevel=2)
+        if self.has_sealed_faces:
+            launch_rows(self.k["extrapolate_to_sealed_faces"], n, [*fit_args, self.sealed_face, 0, self.dirichlet, x, self.dp],
+                        dev)
+            wp.copy(x, self.dp, count=n)
         # v = v* − (Δt/ρ) ∇(p − pⁿ), along the same path
         self.update_ghosts(si.particle_q, x, homogeneous=False)
         launch(self.k["difference"], m.particle_count, [0, x, self.p_old, self.dp], dev)

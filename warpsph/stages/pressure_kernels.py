@@ -314,9 +314,9 @@ def pressure_kernels(spec: Spec):
                 near = True
         near_surface[a] = wp.where(near, 1, 0)
 
-    @wp.kernel(enable_backward=False, module="unique")
-    def roughness(
-        first: int, h: real, n: int, offsets: wp.array(dtype=wp.int32), nbr: wp.array(dtype=wp.int32),
+    @wp.func
+    def fitted_pressure(
+        a: int, with_self: int, h: real, n: int, offsets: wp.array(dtype=wp.int32), nbr: wp.array(dtype=wp.int32),
         q: wp.array(dtype=vec3), origin: wp.array(dtype=vec3), mass: wp.array(dtype=real),
         density: wp.array(dtype=real), material: wp.array(dtype=wp.int32), permeability: wp.array(dtype=f64),
         water_density: wp.array(dtype=f64), gravity: vec3, ghost_source: wp.array(dtype=wp.int32),
@@ -324,42 +324,95 @@ def pressure_kernels(spec: Spec):
         plane_position: wp.array(dtype=real), plane_sign: wp.array(dtype=real), plane_kind: wp.array(dtype=wp.int32),
         drainage: wp.array(dtype=wp.int32), drained_lo: wp.array(dtype=vec3), drained_hi: wp.array(dtype=vec3),
         drained_pressure: wp.array(dtype=f64), head: wp.array(dtype=f64), inflow: wp.array(dtype=f64), water_table: f64,
-        near_surface: wp.array(dtype=wp.int32), everywhere: int, dirichlet: wp.array(dtype=wp.int32),
-        p: wp.array(dtype=f64), out: wp.array(dtype=f64),
+        dirichlet: wp.array(dtype=wp.int32), p: wp.array(dtype=f64),
     ):  # fmt: skip
-        """out = p − Πp [Pa]: Πp is the linear fit of p at the particle over itself and the neighbours
-        ``fit_source`` admits, so a drained boundary's jump is not seen and linear fields give zero;
-        0 on Dirichlet rows, where the fit is not corrected, and (unless ``everywhere``) where no
-        neighbour is near a surface, since no damped pair reads it there."""
-        a = first + wp.tid()
-        out[a] = zero
-        needed = everywhere == 1 or near_surface[a] == 1
-        for k in range(offsets[a], offsets[a + 1]):
-            if near_surface[source_of(nbr[k], n, ghost_source)] == 1:
-                needed = True
-        if dirichlet[a] == 1 or not needed:
-            return
-        # the value fit Σ V ψ p = (Σ V W p − c·Σ V g p)/den, summed with the fit's moments in one pass
+        """(Πp [Pa], corrected, found): the linear fit of p at particle a over the neighbours
+        ``fit_source`` admits, and a itself if ``with_self`` (else neither a nor its mirror images);
+        corrected = 0 where the fit falls back to a Shepard mean, found = 0 where no source has
+        weight. The value fit Σ V ψ p = (Σ V W p − c·Σ V g p)/den is summed with the fit's moments
+        in one pass."""
         x = q[a]
         origin_a = vec3(real(0.0), real(0.0), real(0.0))
-        vol_a = mass[a] / density[a]
-        w0, wr, g0, M, w, g = add_to_fit(origin_a, vol_a, h, real(0.0), origin_a, origin_a, spec.mat33(real(0.0)))
-        wp_sum = f64(w) * p[a]
+        w0, wr, g0, M = real(0.0), origin_a, origin_a, spec.mat33(real(0.0))
+        wp_sum = zero
         gp_sum = wp.vec3d(zero, zero, zero)
+        if with_self == 1:
+            w0, wr, g0, M, w, g = add_to_fit(origin_a, mass[a] / density[a], h, w0, wr, g0, M)
+            wp_sum = f64(w) * p[a]
         for k in range(offsets[a], offsets[a + 1]):
             j = nbr[k]
-            used, value = fit_source(j, a, n, p, dirichlet, origin, material, permeability, water_density, gravity,
-                                     ghost_source, ghost_chain, q, plane_axis, plane_position, plane_sign, plane_kind,
-                                     drainage, drained_lo, drained_hi, drained_pressure, head, inflow,
-                                     water_table)  # fmt: skip
-            if used == 1:
-                w0, wr, g0, M, w, g = add_to_fit(q[j] - x, mass[j] / density[j], h, w0, wr, g0, M)
-                wp_sum += f64(w) * value
-                gp_sum += wp.vec3d(f64(g[0]), f64(g[1]), f64(g[2])) * value
+            if with_self == 1 or source_of(j, n, ghost_source) != a:
+                used, value = fit_source(j, a, n, p, dirichlet, origin, material, permeability, water_density,
+                                         gravity, ghost_source, ghost_chain, q, plane_axis, plane_position, plane_sign,
+                                         plane_kind, drainage, drained_lo, drained_hi, drained_pressure, head, inflow,
+                                         water_table)  # fmt: skip
+                if used == 1:
+                    w0, wr, g0, M, w, g = add_to_fit(q[j] - x, mass[j] / density[j], h, w0, wr, g0, M)
+                    wp_sum += f64(w) * value
+                    gp_sum += wp.vec3d(f64(g[0]), f64(g[1]), f64(g[2])) * value
+        if w0 <= real(0.0):
+            return zero, 0, 0
         c, inv_den, Minv, e, corrected = finish_fit(w0, wr, g0, M)
-        if corrected:
-            fit = (wp_sum - (f64(c[0]) * gp_sum[0] + f64(c[1]) * gp_sum[1] + f64(c[2]) * gp_sum[2])) * f64(inv_den)
-            out[a] = p[a] - fit
+        fit = (wp_sum - (f64(c[0]) * gp_sum[0] + f64(c[1]) * gp_sum[1] + f64(c[2]) * gp_sum[2])) * f64(inv_den)
+        return fit, wp.where(corrected, 1, 0), 1
+
+    def pressure_fit_kernel(sealed_faces: bool):
+        """The kernel that fits p over each selected particle's neighbours (``fitted_pressure``):
+
+        - ``roughness`` (``sealed_faces`` False): out = p − Πp [Pa], Πp over the particle itself and
+          the neighbours ``fit_source`` admits, so a drained boundary's jump is not seen and linear
+          fields give zero; 0 on Dirichlet rows, where the fit is not corrected, and (unless
+          ``everywhere``) where neither the particle nor a neighbour is ``selected`` (near a
+          surface), since no damped pair reads it there.
+        - ``extrapolate_to_sealed_faces`` (True): out = p, except on the ``selected`` particles (those
+          on a loaded impermeable face), where out = Πp over the neighbours and their even images
+          across the face, without the particle and its own images (∂p/∂n = 0): an increment on
+          such a particle moves nothing, so its own row cannot set its pressure (docs/method.md,
+          *Loaded impermeable faces*).
+        """
+
+        @wp.kernel(enable_backward=False, module="unique")
+        def kernel(
+            first: int, h: real, n: int, offsets: wp.array(dtype=wp.int32), nbr: wp.array(dtype=wp.int32),
+            q: wp.array(dtype=vec3), origin: wp.array(dtype=vec3), mass: wp.array(dtype=real),
+            density: wp.array(dtype=real), material: wp.array(dtype=wp.int32), permeability: wp.array(dtype=f64),
+            water_density: wp.array(dtype=f64), gravity: vec3, ghost_source: wp.array(dtype=wp.int32),
+            ghost_chain: wp.array(dtype=wp.vec3i), plane_axis: wp.array(dtype=wp.int32),
+            plane_position: wp.array(dtype=real), plane_sign: wp.array(dtype=real),
+            plane_kind: wp.array(dtype=wp.int32), drainage: wp.array(dtype=wp.int32),
+            drained_lo: wp.array(dtype=vec3), drained_hi: wp.array(dtype=vec3), drained_pressure: wp.array(dtype=f64),
+            head: wp.array(dtype=f64), inflow: wp.array(dtype=f64), water_table: f64,
+            selected: wp.array(dtype=wp.int32), everywhere: int, dirichlet: wp.array(dtype=wp.int32),
+            p: wp.array(dtype=f64), out: wp.array(dtype=f64),
+        ):  # fmt: skip
+            a = first + wp.tid()
+            if wp.static(sealed_faces):
+                out[a] = p[a]
+                needed = selected[a] == 1
+            else:
+                out[a] = zero
+                needed = everywhere == 1 or selected[a] == 1
+                for k in range(offsets[a], offsets[a + 1]):
+                    if selected[source_of(nbr[k], n, ghost_source)] == 1:
+                        needed = True
+            if dirichlet[a] == 1 or not needed:
+                return
+            fit, corrected, found = fitted_pressure(a, wp.static(0 if sealed_faces else 1), h, n, offsets, nbr, q,
+                                                    origin, mass, density, material, permeability, water_density,
+                                                    gravity, ghost_source, ghost_chain, plane_axis, plane_position,
+                                                    plane_sign, plane_kind, drainage, drained_lo, drained_hi,
+                                                    drained_pressure, head, inflow, water_table, dirichlet,
+                                                    p)  # fmt: skip
+            if wp.static(sealed_faces):
+                if found == 1:
+                    out[a] = fit
+            elif corrected == 1:
+                out[a] = p[a] - fit
+
+        return kernel
+
+    roughness = pressure_fit_kernel(False)
+    extrapolate_to_sealed_faces = pressure_fit_kernel(True)
 
     @wp.kernel(enable_backward=False, module="unique")
     def assemble(
@@ -463,6 +516,7 @@ def pressure_kernels(spec: Spec):
         pressure_ghosts=pressure_ghosts, fit_vector_at_virtual=fit_vector_at_virtual,
         fit_scalar_at_virtual=fit_scalar_at_virtual, divergence_at_real=divergence_at_real,
         gradient_at_real=gradient_at_real, correct_velocity=correct_velocity, darcy=darcy, mark_dirichlet=mark_dirichlet,
-        mark_near_surface=mark_near_surface, roughness=roughness, assemble=assemble,
+        mark_near_surface=mark_near_surface, roughness=roughness,
+        extrapolate_to_sealed_faces=extrapolate_to_sealed_faces, assemble=assemble,
         difference=difference,
     )  # fmt: skip
