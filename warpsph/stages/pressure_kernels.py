@@ -151,37 +151,31 @@ def pressure_kernels(spec: Spec):
             c = c_m
         p[n_owned + g] = s * p[src] + c
 
-    @wp.kernel(enable_backward=False, module="unique")
-    def fit_vector_at_virtual(
-        first: int, h: real, offsets: wp.array(dtype=wp.int32), nbr: wp.array(dtype=wp.int32), vq: wp.array(dtype=vec3),
-        c: wp.array(dtype=vec3), inv_den: wp.array(dtype=real), minv: wp.array(dtype=wp.types.matrix((3, 3), real)),
-        xs: wp.array(dtype=vec3), ms: wp.array(dtype=real), rhos: wp.array(dtype=real), values: wp.array(dtype=vec3),
-        out: wp.array(dtype=vec3),
-    ):  # fmt: skip
-        i = first + wp.tid()
-        x = vq[i]
-        acc = vec3(real(0.0), real(0.0), real(0.0))
-        for k in range(offsets[i], offsets[i + 1]):
-            b = nbr[k]
-            psi, phi = fit_weights(xs[b] - x, h, c[i], inv_den[i], minv[i])
-            acc += (ms[b] / rhos[b] * psi) * values[b]
-        out[i] = acc
+    def fit_at_virtual_kernel(value_type):
+        """The kernel that fits a field of the real set (``value_type``: vec3 or f64) at the virtual
+        points, out_i = Σ_b V_b ψ_b values_b with each point's linear-fit data."""
+        weight_type = f64 if value_type is f64 else real  # a scalar f64 field sums in f64
 
-    @wp.kernel(enable_backward=False, module="unique")
-    def fit_scalar_at_virtual(
-        first: int, h: real, offsets: wp.array(dtype=wp.int32), nbr: wp.array(dtype=wp.int32), vq: wp.array(dtype=vec3),
-        c: wp.array(dtype=vec3), inv_den: wp.array(dtype=real), minv: wp.array(dtype=wp.types.matrix((3, 3), real)),
-        xs: wp.array(dtype=vec3), ms: wp.array(dtype=real), rhos: wp.array(dtype=real), values: wp.array(dtype=f64),
-        out: wp.array(dtype=f64),
-    ):  # fmt: skip
-        i = first + wp.tid()
-        x = vq[i]
-        acc = zero
-        for k in range(offsets[i], offsets[i + 1]):
-            b = nbr[k]
-            psi, phi = fit_weights(xs[b] - x, h, c[i], inv_den[i], minv[i])
-            acc += f64(ms[b] / rhos[b] * psi) * values[b]
-        out[i] = acc
+        @wp.kernel(enable_backward=False, module="unique")
+        def kernel(
+            first: int, h: real, offsets: wp.array(dtype=wp.int32), nbr: wp.array(dtype=wp.int32),
+            vq: wp.array(dtype=vec3), c: wp.array(dtype=vec3), inv_den: wp.array(dtype=real),
+            minv: wp.array(dtype=wp.types.matrix((3, 3), real)), xs: wp.array(dtype=vec3), ms: wp.array(dtype=real),
+            rhos: wp.array(dtype=real), values: wp.array(dtype=value_type), out: wp.array(dtype=value_type),
+        ):  # fmt: skip
+            i = first + wp.tid()
+            x = vq[i]
+            acc = value_type(real(0.0))
+            for k in range(offsets[i], offsets[i + 1]):
+                b = nbr[k]
+                psi, phi = fit_weights(xs[b] - x, h, c[i], inv_den[i], minv[i])
+                acc += weight_type(ms[b] / rhos[b] * psi) * values[b]
+            out[i] = acc
+
+        return kernel
+
+    fit_vector_at_virtual = fit_at_virtual_kernel(vec3)
+    fit_scalar_at_virtual = fit_at_virtual_kernel(f64)
 
     @wp.kernel(enable_backward=False, module="unique")
     def divergence_at_real(
