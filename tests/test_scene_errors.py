@@ -248,6 +248,11 @@ BAD_CASES = {
                                                           'particle_velocity = "mean"'), "simulation.particle_velocity"),
     "negative particle_shifting": (edit("end_time = 0.5", "end_time = 0.5\nlarge_deformation = true\n"
                                                            "particle_shifting = -1"), "simulation.particle_shifting"),
+    "unknown virtual_density": (edit("end_time = 0.5", 'end_time = 0.5\nvirtual_density = "summed"'),
+                                "simulation.virtual_density"),
+    "virtual density with the collocated scheme": (edit('scheme = "two_set"', 'scheme = "collocated"\n'
+                                                                          'virtual_density = "real_motion"'),
+                                                   "simulation.virtual_density"),
     "stress_filter above 0.5": (edit("end_time = 0.5", "end_time = 0.5\nstress_filter = 0.8"),
                                 "simulation.stress_filter"),
     "stress filter with the collocated scheme": (edit('scheme = "two_set"', 'scheme = "collocated"\n'

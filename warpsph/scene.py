@@ -116,6 +116,11 @@ class Simulation:
     particle_velocity: str = "fitted"
     """Two-set scheme: the velocity that moves the real particles, "fitted" (v^{n+½} fitted from the
     virtual points) or "own" (the particle's own, (vⁿ + vⁿ⁺¹)/2; docs/method.md, "Large deformation")."""
+    virtual_density: str = "integrated"
+    """Two-set scheme: how a virtual point's density advances, "integrated" (continuity with the
+    divergence of the real particles' velocities fitted at it) or "real_motion" (continuity with the
+    rate of deformation of the real particles' motion over the step, fitted at it: the point keeps the
+    density of the reals around it; docs/method.md, "Virtual densities")."""
     particle_shifting: float = 0.0
     """Large deformation, two-set scheme: particle-shifting coefficient A [-] (0 disables it). Each
     point set is shifted by −A h² Δt‖d‖ ∇C down the gradient of its own concentration C (docs/method.md,

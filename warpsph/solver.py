@@ -84,6 +84,12 @@ class Solver:
             Stage("taylor_full_step", self._full_step),
             Stage("prescribed_values", self._prescribe),
         ]
+        self.real_motion = None
+        """The real particles' velocity over the step [m/s] (``virtual_density = "real_motion"`` only)."""
+        if m.scene.simulation.virtual_density == "real_motion":
+            self.real_motion = wp.zeros(m.particle_capacity, dtype=s.vec3, device=dev)
+            self.stages.insert(self.stage_names.index("taylor_full_step") + 1,
+                               Stage("virtual_continuity", self._virtual_continuity))
         if self.shifting:
             self.virtual_shift = wp.zeros(m.virtual_capacity, dtype=s.vec3, device=dev)
             self.shift_real_to_real = NeighbourList(s, m.extent, self.support, dev, same_set=True)
@@ -130,7 +136,7 @@ class Solver:
     def _half_step(self, si: State, so: State, t: float, dt: float) -> None:
         m = self.model
         real = m.spec.real
-        half_step, _ = taylor_kernels(m.spec)
+        half_step, *_ = taylor_kernels(m.spec)
         nl = self.virtual_to_real
         launch_rows(half_step, m.virtual_count,
                [real(m.h), real(dt), m.spec.vec3(*m.gravity), real(m.scene.simulation.free_surface_threshold),
@@ -139,7 +145,8 @@ class Solver:
                 m.virtual_material, *self.virtual_fits.arrays(),
                 m.material_lambda, m.material_shear, self.virtual_v, self.virtual_stress, so.virtual_q,
                 so.virtual_density, si.particle_pore_pressure, self._water_density, self.virtual_p,
-                si.particle_plastic_strain, m.material_plasticity, self.virtual_rate], m.device)  # fmt: skip
+                si.particle_plastic_strain, m.material_plasticity, self.virtual_rate,
+                real(0.0 if self.real_motion is not None else 1.0)], m.device)  # fmt: skip
 
     def _shifting(self, si: State, so: State, t: float, dt: float) -> None:
         """Shifts of both sets from the configuration at tⁿ: the virtual points' are applied to their
@@ -166,7 +173,7 @@ class Solver:
     def _full_step(self, si: State, so: State, t: float, dt: float) -> None:
         m = self.model
         real = m.spec.real
-        _, full_step = taylor_kernels(m.spec)
+        _, full_step, *_ = taylor_kernels(m.spec)
         nl = self.real_to_virtual
         own = int(m.scene.simulation.particle_velocity == "own")
         launch_rows(full_step, m.particle_count,
@@ -179,6 +186,22 @@ class Solver:
                 self.virtual_p, self._water_density, si.particle_plastic_strain, m.material_plasticity,
                 so.particle_plastic_strain, int(self.shifting), real(m.scene.simulation.particle_shifting), self.real_shift,
                 own, real(m.scene.simulation.stress_filter)], m.device)  # fmt: skip
+
+    def _virtual_continuity(self, si: State, so: State, t: float, dt: float) -> None:
+        """The virtual points' densities follow the motion of the real particles around them over the
+        step (continuity with the rate of deformation of that motion; docs/method.md)."""
+        m = self.model
+        real = m.spec.real
+        *_, virtual_continuity, motion_over_step = taylor_kernels(m.spec)
+        launch(motion_over_step, m.particle_count, [0, real(dt), si.particle_q, so.particle_q, self.real_motion],
+               m.device)  # fmt: skip
+        self.boundaries.update_real_ghosts(si.particle_q, self.real_motion, so.particle_stress, so.particle_density,
+                                           si.particle_pore_pressure)  # fmt: skip
+        nl = self.virtual_to_real
+        launch_rows(virtual_continuity, m.virtual_count,
+               [real(m.h), real(dt), nl.offsets, nl.indices, si.particle_q, m.particle_mass, si.particle_density,
+                self.real_motion, si.virtual_q, *self.virtual_fits.arrays()[:4], so.virtual_density],
+               m.device)  # fmt: skip
 
     @property
     def _water_on_surface(self):

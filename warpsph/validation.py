@@ -367,9 +367,12 @@ def _check_simulation(sim: Simulation) -> None:
     check_range("simulation.free_surface_threshold", sim.free_surface_threshold, Interval(0.0, 1.0))
     check_choice("simulation.virtual_points", sim.virtual_points, ("advected", "regenerated"))
     check_choice("simulation.particle_velocity", sim.particle_velocity, ("fitted", "own"))
+    check_choice("simulation.virtual_density", sim.virtual_density, ("integrated", "real_motion"))
     check_range("simulation.particle_shifting", sim.particle_shifting, NON_NEGATIVE)
     if sim.stress_filter > 0.0 and sim.scheme != "two_set":
         raise SceneError("simulation.stress_filter", "acts between the two point sets: it needs scheme = \"two_set\"")
+    if sim.virtual_density != "integrated" and sim.scheme != "two_set":
+        raise SceneError("simulation.virtual_density", "is the virtual points' density: it needs scheme = \"two_set\"")
     if (sim.particle_shifting > 0.0 or sim.particle_velocity != "fitted") and not (
             sim.large_deformation and sim.scheme == "two_set"):
         raise SceneError("simulation", "particle_shifting and particle_velocity = \"own\" are large-deformation "

@@ -24,9 +24,12 @@ Virtual points move with their half-step velocity, real particles with the half-
 fitted at them or, with ``simulation.particle_velocity = "own"``, with their own (vⁿ + vⁿ⁺¹)/2 (then
 a particle whose fit falls back to Shepard is in free flight); with particle shifting a real particle
 also moves by its shift and takes its fields there (:mod:`warpsph.stages.shifting`); densities
-follow continuity. The half step fits on the configuration at tⁿ; the full step's gradients of
-Φ^{n+½} (velocity gradient, stress divergence, surface normal) are mapped onto the step's midpoint
-configuration x + (Δt/2) v^{n+½}, where Φ^{n+½} lives (docs/method.md). Optional Monaghan
+follow continuity (a virtual point's by default with the divergence fitted at it, with
+``simulation.virtual_density = "real_motion"`` with the reals' motion over the step fitted at it:
+``virtual_continuity``, docs/method.md "Virtual densities"). The half step fits on the configuration
+at tⁿ; the full step's gradients of Φ^{n+½} (velocity gradient, stress divergence, surface normal)
+are mapped onto the step's midpoint configuration x + (Δt/2) v^{n+½}, where Φ^{n+½} lives
+(docs/method.md). Optional Monaghan
 artificial viscosity acts between real particles and virtual points in the full step, and the
 optional stress filter removes the part of a real particle's stress its virtual neighbours do not
 see (an odd-even null mode of the real → virtual fit).
@@ -46,7 +49,7 @@ from warpsph.stages.shifting import shifting_kernels
 
 @functools.cache
 def taylor_kernels(spec: Spec):
-    """``(half_step, full_step)`` kernels for ``spec``."""
+    """``(half_step, full_step, virtual_continuity, motion_over_step)`` kernels for ``spec``."""
     real, vec3, mat33 = spec.real, spec.vec3, spec.mat33
     _fit, fit_weights, _unused, _eig = operator_functions(spec)
     _W, grad_W = smoothing_functions(spec)
@@ -183,7 +186,10 @@ def taylor_kernels(spec: Spec):
         real_plastic_strain: wp.array(dtype=real),
         plastic_material: wp.array(dtype=PlasticMaterial),
         virt_rate: wp.array(dtype=real),
+        continuity: real,
     ):
+        """``continuity``: 1 to advance the virtual densities by the divergence fitted here, 0 when
+        ``virtual_continuity`` advances them after the full step."""
         i = first + wp.tid()
         x = virt_q[i]
         v, s, G, div, p = fit_fields(x, offsets[i], offsets[i + 1], nbr, real_q, real_mass, real_density, real_v,
@@ -215,7 +221,7 @@ def taylor_kernels(spec: Spec):
         virt_stress_half[i] = s_half
         virt_rate[i] = wp.sqrt(wp.ddot(d, d))  # ‖d‖ [1/s], the rate particle shifting follows
         virt_q_out[i] = x + dt * wp.cw_mul(v_half, moves)
-        virt_density_out[i] = rho * wp.exp(opening - dt * wp.trace(d))
+        virt_density_out[i] = rho * wp.exp(opening - continuity * dt * wp.trace(d))
 
     @wp.kernel(enable_backward=False, module="unique", name=f"full_step{variant}" if plasticity else None)
     def full_step(
@@ -346,4 +352,35 @@ def taylor_kernels(spec: Spec):
             q_out[a] = x + dt * wp.cw_mul(v_half, moves) + dx
         density_out[a] = rho * wp.exp(opening - dt * wp.trace(d))
 
-    return half_step, full_step
+    @wp.kernel(enable_backward=False, module="unique")
+    def virtual_continuity(
+        first: int, h: real, dt: real, offsets: wp.array(dtype=wp.int32), nbr: wp.array(dtype=wp.int32),
+        real_q: wp.array(dtype=vec3), real_mass: wp.array(dtype=real), real_density: wp.array(dtype=real),
+        real_motion: wp.array(dtype=vec3), virt_q: wp.array(dtype=vec3), virt_fit_c: wp.array(dtype=vec3),
+        virt_fit_inv_den: wp.array(dtype=real), virt_fit_minv: wp.array(dtype=mat33),
+        virt_fit_e: wp.array(dtype=vec3), virt_density: wp.array(dtype=real),
+    ):  # fmt: skip
+        """ρ_i ← ρ_i exp(−Δt tr d), d the rate of deformation of the real particles' motion over the step
+        (their displacement / Δt) fitted at the virtual point, on the step's midpoint configuration."""
+        i = first + wp.tid()
+        x = virt_q[i]
+        v = vec3(zero, zero, zero)
+        G = mat33(zero)
+        for k in range(offsets[i], offsets[i + 1]):
+            b = nbr[k]
+            vol = real_mass[b] / real_density[b]
+            psi, phi = fit_weights(real_q[b] - x, h, virt_fit_c[i], virt_fit_inv_den[i], virt_fit_minv[i])
+            v += (vol * psi) * real_motion[b]
+            G += wp.outer(vol * phi, real_motion[b])
+        G -= wp.outer(virt_fit_e[i], v)
+        G = wp.inverse(wp.identity(n=3, dtype=real) + half * dt * G) * G
+        virt_density[i] = virt_density[i] * wp.exp(-dt * wp.trace(G))
+
+    @wp.kernel(enable_backward=False, module="unique")
+    def motion_over_step(first: int, dt: real, q_in: wp.array(dtype=vec3), q_out: wp.array(dtype=vec3),
+                         motion: wp.array(dtype=vec3)):  # fmt: skip
+        """The velocity [m/s] each real particle moved with over the step."""
+        a = first + wp.tid()
+        motion[a] = (q_out[a] - q_in[a]) / dt
+
+    return half_step, full_step, virtual_continuity, motion_over_step
