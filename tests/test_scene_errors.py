@@ -248,6 +248,11 @@ BAD_CASES = {
                                                           'particle_velocity = "mean"'), "simulation.particle_velocity"),
     "negative particle_shifting": (edit("end_time = 0.5", "end_time = 0.5\nlarge_deformation = true\n"
                                                            "particle_shifting = -1"), "simulation.particle_shifting"),
+    "velocity_filter above 0.5": (edit("end_time = 0.5", "end_time = 0.5\nvelocity_filter = 0.6"),
+                                  "simulation.velocity_filter"),
+    "velocity filter with the collocated scheme": (edit('scheme = "two_set"', 'scheme = "collocated"\n'
+                                                                          'velocity_filter = 0.02'),
+                                                   "simulation.velocity_filter"),
     "unknown virtual_density": (edit("end_time = 0.5", 'end_time = 0.5\nvirtual_density = "summed"'),
                                 "simulation.virtual_density"),
     "virtual density with the collocated scheme": (edit('scheme = "two_set"', 'scheme = "collocated"\n'

@@ -103,6 +103,10 @@ class Simulation:
     stress_filter: float = 0.0
     """Two-set scheme: fraction β [-] of the real particles' stress that the virtual points do not see
     (an odd-even stress mode) removed each step (0 disables it; docs/method.md, "Stress filter")."""
+    velocity_filter: float = 0.0
+    """Two-set scheme: fraction β [-] of the real particles' velocity that the virtual points do not see
+    (their own mid-step velocity against the one fitted at them, which moves them) removed each step
+    (0 disables it; docs/method.md, "Velocity filter")."""
     velocity_limit: float = math.inf
     """Run guard: the run stops if any particle speed exceeds this [m/s]."""
     free_surface_threshold: float = 0.75

@@ -363,6 +363,7 @@ def _check_simulation(sim: Simulation) -> None:
     check_choice("simulation.precision", sim.precision, ("float32", "float64"))
     check_range("simulation.artificial_viscosity", sim.artificial_viscosity, NON_NEGATIVE)
     check_range("simulation.stress_filter", sim.stress_filter, Interval(0.0, 0.5, lo_closed=True, hi_closed=True))
+    check_range("simulation.velocity_filter", sim.velocity_filter, Interval(0.0, 0.5, lo_closed=True, hi_closed=True))
     check_range("simulation.velocity_limit", sim.velocity_limit, POSITIVE)
     check_range("simulation.free_surface_threshold", sim.free_surface_threshold, Interval(0.0, 1.0))
     check_choice("simulation.virtual_points", sim.virtual_points, ("advected", "regenerated"))
@@ -371,6 +372,8 @@ def _check_simulation(sim: Simulation) -> None:
     check_range("simulation.particle_shifting", sim.particle_shifting, NON_NEGATIVE)
     if sim.stress_filter > 0.0 and sim.scheme != "two_set":
         raise SceneError("simulation.stress_filter", "acts between the two point sets: it needs scheme = \"two_set\"")
+    if sim.velocity_filter > 0.0 and sim.scheme != "two_set":
+        raise SceneError("simulation.velocity_filter", "acts between the two point sets: it needs scheme = \"two_set\"")
     if sim.virtual_density != "integrated" and sim.scheme != "two_set":
         raise SceneError("simulation.virtual_density", "is the virtual points' density: it needs scheme = \"two_set\"")
     if (sim.particle_shifting > 0.0 or sim.particle_velocity != "fitted") and not (

@@ -1,7 +1,7 @@
 """Malformed scenes (issue 6, item 10) through the command line: exit code 2 with one line on stderr,
 never a traceback, never a hang.
 
-- **Table**: every case of ``test_scene_errors.BAD_CASES`` (83 distinct malformed scenes) written to a
+- **Table**: every case of ``test_scene_errors.BAD_CASES`` (85 distinct malformed scenes) written to a
   file and checked by ``warpsph validate`` (the command line's ``main``, in process): exit code 2 and
   one stderr line ``warpsph: error: <file>: <key path>: <message>`` naming the case's key path.
   A sample of them also through ``python -m warpsph validate`` in a subprocess (the console path,

@@ -270,6 +270,7 @@ def taylor_kernels(spec: Spec):
         shift: wp.array(dtype=vec3),
         own_velocity: int,
         stress_filter: real,
+        velocity_filter: real,
     ):
         a = first + wp.tid()
         x = q[a]
@@ -339,6 +340,10 @@ def taylor_kernels(spec: Spec):
                 d_s += (virt_mass[i] / virt_density[i] * wp.dot(phi_i, dx)) * virt_stress_half[i]
             d_s -= wp.dot(real_fit_e[a], dx) * s_half
         v_out[a] = v[a] + dt * (div / rho + body_force + visc) + d_v
+        if velocity_filter > zero and not free:
+            # the part of the particle's velocity the virtual points do not see: its own mid-step
+            # velocity against the one fitted at it from their v^{n+½}, which moves it
+            v_out[a] = v_out[a] - velocity_filter * (half * (v[a] + v_out[a]) - v_half)
         if stress_filter > zero and not free:
             # the part of the particle's stress the virtual points do not see: its own mid-step
             # value against the virtual points' Φ^{n+½} fitted back at it
