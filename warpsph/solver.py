@@ -196,6 +196,8 @@ class Solver:
         *_, virtual_continuity, motion_over_step = taylor_kernels(m.spec)
         launch(motion_over_step, m.particle_count, [0, real(dt), si.particle_q, so.particle_q, self.real_motion],
                m.device)  # fmt: skip
+        # the motion's ghosts as velocities (the call also refreshes the ghosts of so's stress and density,
+        # which the next step's ghost stage sets anew)
         self.boundaries.update_real_ghosts(si.particle_q, self.real_motion, so.particle_stress, so.particle_density,
                                            si.particle_pore_pressure)  # fmt: skip
         nl = self.virtual_to_real
