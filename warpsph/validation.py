@@ -370,12 +370,12 @@ def _check_simulation(sim: Simulation) -> None:
     check_choice("simulation.particle_velocity", sim.particle_velocity, ("fitted", "own"))
     check_choice("simulation.virtual_density", sim.virtual_density, ("integrated", "real_motion"))
     check_range("simulation.particle_shifting", sim.particle_shifting, NON_NEGATIVE)
-    if sim.stress_filter > 0.0 and sim.scheme != "two_set":
-        raise SceneError("simulation.stress_filter", "acts between the two point sets: it needs scheme = \"two_set\"")
-    if sim.velocity_filter > 0.0 and sim.scheme != "two_set":
-        raise SceneError("simulation.velocity_filter", "acts between the two point sets: it needs scheme = \"two_set\"")
-    if sim.virtual_density != "integrated" and sim.scheme != "two_set":
-        raise SceneError("simulation.virtual_density", "is the virtual points' density: it needs scheme = \"two_set\"")
+    two_set_only = (("stress_filter", sim.stress_filter > 0.0, "acts between the two point sets"),
+                    ("velocity_filter", sim.velocity_filter > 0.0, "acts between the two point sets"),
+                    ("virtual_density", sim.virtual_density != "integrated", "is the virtual points' density"))
+    for key, used, what in two_set_only:
+        if used and sim.scheme != "two_set":
+            raise SceneError(f"simulation.{key}", f"{what}: it needs scheme = \"two_set\"")
     if (sim.particle_shifting > 0.0 or sim.particle_velocity != "fitted") and not (
             sim.large_deformation and sim.scheme == "two_set"):
         raise SceneError("simulation", "particle_shifting and particle_velocity = \"own\" are large-deformation "
