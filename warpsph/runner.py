@@ -108,7 +108,7 @@ class Run:
         self.scratch = self.model.state()
         self.scratch.assign(self.state)
         self.solver = Solver(self.model, profile=profile)
-        self.guard = Guard(self.model, scene.simulation.velocity_limit)
+        self.guard = Guard(self.model, scene.speed_limit)
         self.probes = Probes(self.model)
         self.dt = scene.time_step
         self.step_index = 0
@@ -248,8 +248,7 @@ class Run:
         if broken:
             what = f"has {' and '.join(broken)}"
         else:
-            what = (f"moves at {float(np.linalg.norm(f['velocity'][bad])):.4g} m/s, beyond simulation.velocity_limit "
-                    f"= {self.scene.simulation.velocity_limit:g} m/s")  # fmt: skip
+            what = f"moves at {float(np.linalg.norm(f['velocity'][bad])):.4g} m/s, beyond {self.scene.speed_limit_text}"
         self._unstable(f"particle {bad} at {np.array2string(f['position'][bad], precision=4)} m {what}")
 
     def _unstable(self, what: str):

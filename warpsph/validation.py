@@ -364,7 +364,8 @@ def _check_simulation(sim: Simulation) -> None:
     check_range("simulation.artificial_viscosity", sim.artificial_viscosity, NON_NEGATIVE)
     check_range("simulation.stress_filter", sim.stress_filter, Interval(0.0, 0.5, lo_closed=True, hi_closed=True))
     check_range("simulation.velocity_filter", sim.velocity_filter, Interval(0.0, 0.5, lo_closed=True, hi_closed=True))
-    check_range("simulation.velocity_limit", sim.velocity_limit, POSITIVE)
+    if sim.velocity_limit is not None:
+        check_range("simulation.velocity_limit", sim.velocity_limit, POSITIVE)
     check_range("simulation.free_surface_threshold", sim.free_surface_threshold, Interval(0.0, 1.0))
     check_choice("simulation.virtual_points", sim.virtual_points, ("advected", "regenerated"))
     check_choice("simulation.particle_velocity", sim.particle_velocity, ("fitted", "own"))

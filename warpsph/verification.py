@@ -105,7 +105,8 @@ def run_sampled(scene, sample_steps: Iterable[int], extract: Callable, device: s
     """Build ``scene`` on ``device``, compile by one throw-away step (timed apart), step to the
     largest of ``sample_steps`` and keep ``extract(model, state)`` after each of them. Raises
     :class:`~warpsph.errors.SimulationError` when the run guard finds a non-finite field or a speed
-    beyond ``simulation.velocity_limit`` (checked at every sample and every ``GUARD_EVERY`` steps)."""
+    beyond the scene's :attr:`~warpsph.scene.Scene.speed_limit` (checked at every sample and every
+    ``GUARD_EVERY`` steps)."""
     import warp as wp
 
     from warpsph.builder import build
@@ -119,7 +120,7 @@ def run_sampled(scene, sample_steps: Iterable[int], extract: Callable, device: s
     build_seconds = time.perf_counter() - start
     scratch = model.state()
     scratch.assign(state)
-    solver, guard, dt = Solver(model), Guard(model, scene.simulation.velocity_limit), scene.time_step
+    solver, guard, dt = Solver(model), Guard(model, scene.speed_limit), scene.time_step
     compile_seconds = warm_up(solver, guard, state, scratch, 0.0, dt)
     wanted = set(sample_steps)
     stops = sorted(wanted | set(range(GUARD_EVERY, max(wanted, default=0), GUARD_EVERY)))
@@ -136,7 +137,7 @@ def run_sampled(scene, sample_steps: Iterable[int], extract: Callable, device: s
         bad, point = guard.find(state)
         if bad is not None:
             raise SimulationError(f"unstable by step {step}, t = {step * dt:.6g} s: particle {bad} has a non-finite "
-                                  f"field or a speed beyond {scene.simulation.velocity_limit:g} m/s")  # fmt: skip
+                                  f"field or a speed beyond {scene.speed_limit_text}")  # fmt: skip
         if point is not None:
             raise SimulationError(f"unstable by step {step}, t = {step * dt:.6g} s: virtual point {point} has a "
                                   "non-finite position or density or a non-positive density")  # fmt: skip

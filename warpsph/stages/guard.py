@@ -12,7 +12,7 @@ from warpsph.sph.spec import Spec
 
 NO_PARTICLE = 2**31 - 1
 LARGEST_SPEED = 1.0e30
-"""Speed [m/s] beyond which a particle is bad whatever the scene's velocity_limit (also with none: a
+"""Speed [m/s] beyond which a particle is bad whatever the scene's speed limit (also with none: a
 blow-up on its way to overflow is caught before it reaches float32's 3.4e38)."""
 
 
