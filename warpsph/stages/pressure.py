@@ -222,7 +222,8 @@ class PressureProjection:
         if self.settings.stabilisation > 0.0 or self.settings.interior_stabilisation > 0.0:
             launch_rows(self.k["mark_near_surface"], n,
                         [n, nl.offsets, nl.indices, m.particle_ghost_source, rf.smallest_eigenvalue,
-                         real(m.scene.simulation.free_surface_threshold), self.near_surface], dev)  # fmt: skip
+                         real(m.scene.simulation.free_surface_threshold), self.sealed_face, self.near_surface],
+                        dev)  # fmt: skip
             launch_rows(self.k["roughness"], n,
                    [*fit_args, self.near_surface, int(self.settings.interior_stabilisation > 0.0), self.dirichlet, self.p_old,
                     self.roughness], dev)  # fmt: skip

@@ -25,6 +25,13 @@ DRAINED_SURFACE_EIGENVALUE = 0.6
 face, ≈0.66 one row in): with a drained free surface their pore pressure is zero."""
 ETA = 0.1
 """Morris regularisation η/h."""
+NEAR_FREE_SURFACE, NEAR_SEALED_FACE = 1, 2
+"""``mark_near_surface`` marks: in or next to a free surface's band, on or next to a loaded impermeable
+face (0 elsewhere)."""
+SEALED_FACE_DRAINAGE = 0.01
+"""k ρ/Δt [-] at which the roughness damping next to a loaded impermeable face falls to half its weight:
+below about 0.005 a step about rest grows there, above 0.05 the Darcy part alone damps it (measured,
+docs/method.md *Loaded impermeable faces*)."""
 
 
 def _lattice_distances(dim: int, ratio: float) -> np.ndarray:
@@ -296,17 +303,20 @@ def pressure_kernels(spec: Spec):
     @wp.kernel(enable_backward=False, module="unique")
     def mark_near_surface(first: int, n: int, offsets: wp.array(dtype=wp.int32), nbr: wp.array(dtype=wp.int32),
                           ghost_source: wp.array(dtype=wp.int32), eigenvalue: wp.array(dtype=real),
-                          surface_band: real, near_surface: wp.array(dtype=wp.int32)):  # fmt: skip
-        """near_surface = 1 in a free surface's band (correction eigenvalue below ``surface_band``) and
-        on the band's neighbours (a ghost stands for its source): the particles whose pairs the
-        roughness damping acts on at full weight."""
+                          surface_band: real, sealed_face: wp.array(dtype=wp.int32),
+                          near_surface: wp.array(dtype=wp.int32)):  # fmt: skip
+        """near_surface = NEAR_FREE_SURFACE in a free surface's band (correction eigenvalue below
+        ``surface_band``) and on the band's neighbours (a ghost stands for its source), else
+        NEAR_SEALED_FACE on a loaded impermeable face's particles and their neighbours, else 0: where
+        the roughness damping acts on a pair beyond its interior weight."""
         a = first + wp.tid()
         near = eigenvalue[a] < surface_band
+        sealed = sealed_face[a] == 1
         for k in range(offsets[a], offsets[a + 1]):
             j = source_of(nbr[k], n, ghost_source)
-            if eigenvalue[j] < surface_band:
-                near = True
-        near_surface[a] = wp.where(near, 1, 0)
+            near = near or eigenvalue[j] < surface_band
+            sealed = sealed or sealed_face[j] == 1
+        near_surface[a] = wp.where(near, NEAR_FREE_SURFACE, wp.where(sealed, NEAR_SEALED_FACE, 0))
 
     @wp.func
     def fitted_pressure(
@@ -356,8 +366,8 @@ def pressure_kernels(spec: Spec):
         - ``roughness`` (``sealed_faces`` False): out = p − Πp [Pa], Πp over the particle itself and
           the neighbours ``fit_source`` admits, so a drained boundary's jump is not seen and linear
           fields give zero; 0 on Dirichlet rows, where the fit is not corrected, and (unless
-          ``everywhere``) where neither the particle nor a neighbour is ``selected`` (near a
-          surface), since no damped pair reads it there.
+          ``everywhere``) where neither the particle nor a neighbour is ``selected`` (near a free
+          surface or a loaded impermeable face), since no damped pair reads it there.
         - ``extrapolate_to_sealed_faces`` (True): out = p, except on the ``selected`` particles (those
           on a loaded impermeable face), where out = Πp over the neighbours and their even images
           across the face, without the particle and its own images (∂p/∂n = 0): an increment on
@@ -385,9 +395,9 @@ def pressure_kernels(spec: Spec):
                 needed = selected[a] == 1
             else:
                 out[a] = zero
-                needed = everywhere == 1 or selected[a] == 1
+                needed = everywhere == 1 or selected[a] != 0
                 for k in range(offsets[a], offsets[a + 1]):
-                    if selected[source_of(nbr[k], n, ghost_source)] == 1:
+                    if selected[source_of(nbr[k], n, ghost_source)] != 0:
                         needed = True
             if dirichlet[a] == 1 or not needed:
                 return
@@ -474,8 +484,13 @@ def pressure_kernels(spec: Spec):
             b += w_k * cst + w_dt * cst_dt
             if dirichlet[a] == 0 and dirichlet[col] == 0 and mat_j == mat:  # damps p's roughness, drains nothing
                 theta = interior_stabilisation
-                if near_surface[a] == 1 or near_surface[col] == 1:
+                if near_surface[a] == NEAR_FREE_SURFACE or near_surface[col] == NEAR_FREE_SURFACE:
                     theta = stabilisation
+                elif near_surface[a] == NEAR_SEALED_FACE or near_surface[col] == NEAR_SEALED_FACE:
+                    # faded out as the pair's Darcy part takes over damping the roughness
+                    drainage_ratio = k_pair / (dt_rho_a + f64(dt) / f64(density[j]))  # k ρ/Δt
+                    theta = wp.max(stabilisation / (f64(1.0) + drainage_ratio / f64(SEALED_FACE_DRAINAGE)),
+                                   interior_stabilisation)
                 b -= theta * w_dt * (rough[a] - rough[col])
             coefficient = w_k * s + w_dt * s_dt  # the ghost's parities folded in: A x = diag x − Σ weight x[column]
             if dirichlet[col] == 1:
