@@ -33,7 +33,13 @@ from warpsph.launching import launch, launch_rows
 from warpsph.model import PLANE_TRACTION, Model
 from warpsph.scene import EXTENT_TOLERANCE
 from warpsph.stages.linear_solve import LinearSolver
-from warpsph.stages.pressure_kernels import laplacian_scale, lattice_morris_sum, pressure_kernels
+from warpsph.stages.pressure_kernels import (
+    DRAINING_RATIO,
+    LOW_PERMEABILITY_WEIGHT,
+    laplacian_scale,
+    lattice_morris_sum,
+    pressure_kernels,
+)
 
 STABLE_SURFACE_RATIO = {"drained": 0.05, "impermeable": 0.01}
 """k ρ/Δt (the Darcy part of the projection's Laplacian over its Δt/ρ part) from which a free surface
@@ -48,6 +54,11 @@ DAMPED_STABLE_SURFACE_RATIO = {"drained": 0.01, "impermeable": 0.0}
 k_h = 1e-12 m/s at Courant 0.1–0.9 (1D column); a drained one stable at k ρ/Δt = 0.0071, 0.0014
 and 0.00079 at Courant 0.1, 0.5 and 0.9, with a slow mode below (0.015–0.28 /s in 1D, 1.7 /s in a
 2D column at k_h = 1e-8 m/s) instead of 52 /s."""
+NEGLIGIBLE_WEIGHT = 1e-3
+"""Relative weight below which the roughness damping away from free surfaces and sealed faces is not
+computed: where every material in use drains k ρ/Δt > 0.19 a step (e.g. Terzaghi's set A, 0.24)."""
+
+
 class PressureProjection:
     """Assembles and solves the pressure equation and corrects the velocity (two-set scheme)."""
 
@@ -93,6 +104,9 @@ class PressureProjection:
         """1 on the particles of impermeable traction planes (loaded sealed faces), whose pressure is
         extrapolated from their neighbours after each solve (``extrapolate_to_sealed_faces``)."""
         self.has_sealed_faces = bool(np.any(image == 0.0))
+        self.damps_everywhere = settings.interior_stabilisation > 0.0 or (
+            settings.stabilisation > 0.0 and self._low_permeability_weight() > NEGLIGIBLE_WEIGHT)
+        """Whether the roughness is computed at every particle, not only near free surfaces and sealed faces."""
         self.drained_value = wp.array(val, dtype=f64, device=dev)
         self.iterations: list[int] = []
         self.residuals: list[float] = []
@@ -108,6 +122,16 @@ class PressureProjection:
         self.failures = 0
         self._surface_checked = False  # its warning, if any, comes again with the run's first step
         self.surface_warning = None
+
+    def _low_permeability_weight(self) -> float:
+        """Largest weight, relative to ``pressure.stabilisation``, of the roughness damping away from free
+        surfaces and sealed faces: LOW_PERMEABILITY_WEIGHT faded by the least draining material in use."""
+        m = self.model
+        materials = list(m.scene.materials.values())
+        permeability = m.pore.material_permeability.numpy()
+        draining = min(permeability[i] * materials[i].density / m.scene.time_step
+                       for i in np.unique(m.particle_material.numpy()[: m.particle_count]))
+        return LOW_PERMEABILITY_WEIGHT / (1.0 + draining / DRAINING_RATIO)
 
     def _face_factor(self) -> np.ndarray:
         """½ per plane a particle lies on: the share of its cell inside the body. Scaling its row by
@@ -225,7 +249,7 @@ class PressureProjection:
                          real(m.scene.simulation.free_surface_threshold), self.sealed_face, self.near_surface],
                         dev)  # fmt: skip
             launch_rows(self.k["roughness"], n,
-                   [*fit_args, self.near_surface, int(self.settings.interior_stabilisation > 0.0), self.dirichlet, self.p_old,
+                   [*fit_args, self.near_surface, int(self.damps_everywhere), self.dirichlet, self.p_old,
                     self.roughness], dev)  # fmt: skip
         launch_rows(self.k["assemble"], n,
                [h, real(dt), wp.float64(self.scale), n, nl.offsets, nl.indices, si.particle_q, m.particle_origin,

@@ -28,10 +28,14 @@ ETA = 0.1
 NEAR_FREE_SURFACE, NEAR_SEALED_FACE = 1, 2
 """``mark_near_surface`` marks: in or next to a free surface's band, on or next to a loaded impermeable
 face (0 elsewhere)."""
-SEALED_FACE_DRAINAGE = 0.01
-"""k ρ/Δt [-] at which the roughness damping next to a loaded impermeable face falls to half its weight:
-below about 0.005 a step about rest grows there, above 0.05 the Darcy part alone damps it (measured,
-docs/method.md *Loaded impermeable faces*)."""
+DRAINING_RATIO = 0.01
+"""k ρ/Δt [-] of a pair (its Darcy weight over its Δt/ρ weight) at which the roughness damping away from
+free surfaces falls to half its weight: below about 0.005 a step about rest of a plane-bounded block
+grows, above 0.05 the Darcy part alone damps the roughness (measured, docs/method.md *Pore-pressure
+roughness damping*)."""
+LOW_PERMEABILITY_WEIGHT = 0.02
+"""Weight of the roughness damping, relative to ``pressure.stabilisation``, away from free surfaces and
+loaded impermeable faces where the Darcy part does not drain (k ρ/Δt → 0); faded by DRAINING_RATIO."""
 
 
 def _lattice_distances(dim: int, ratio: float) -> np.ndarray:
@@ -483,14 +487,14 @@ def pressure_kernels(spec: Spec):
             b += w_dt * (p_old[a] - (s_dt * p_old[col] + cst_dt))  # −V ∇·((Δt/ρ)∇pⁿ)
             b += w_k * cst + w_dt * cst_dt
             if dirichlet[a] == 0 and dirichlet[col] == 0 and mat_j == mat:  # damps p's roughness, drains nothing
-                theta = interior_stabilisation
-                if near_surface[a] == NEAR_FREE_SURFACE or near_surface[col] == NEAR_FREE_SURFACE:
-                    theta = stabilisation
-                elif near_surface[a] == NEAR_SEALED_FACE or near_surface[col] == NEAR_SEALED_FACE:
+                theta = stabilisation
+                if near_surface[a] != NEAR_FREE_SURFACE and near_surface[col] != NEAR_FREE_SURFACE:
                     # faded out as the pair's Darcy part takes over damping the roughness
-                    drainage_ratio = k_pair / (dt_rho_a + f64(dt) / f64(density[j]))  # k ρ/Δt
-                    theta = wp.max(stabilisation / (f64(1.0) + drainage_ratio / f64(SEALED_FACE_DRAINAGE)),
-                                   interior_stabilisation)
+                    base = stabilisation * f64(LOW_PERMEABILITY_WEIGHT)
+                    if near_surface[a] == NEAR_SEALED_FACE or near_surface[col] == NEAR_SEALED_FACE:
+                        base = stabilisation
+                    draining = k_pair / (dt_rho_a + f64(dt) / f64(density[j]))  # k ρ/Δt
+                    theta = wp.max(base / (f64(1.0) + draining / f64(DRAINING_RATIO)), interior_stabilisation)
                 b -= theta * w_dt * (rough[a] - rough[col])
             coefficient = w_k * s + w_dt * s_dt  # the ghost's parities folded in: A x = diag x − Σ weight x[column]
             if dirichlet[col] == 1:
