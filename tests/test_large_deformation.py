@@ -107,9 +107,10 @@ def slide(large_deformation: bool, duration: float, speed: float = SPEED, virtua
 def test_block_slides_three_widths_on_its_floor():
     """Galilean invariance: sliding three widths with re-planned ghosts and advected virtual points
     repeats the block at rest to round-off (the block on its own, with free sides, is not quite at
-    rest in the scheme: that is the reference, not zero)."""
+    rest in the scheme: that is the reference, not zero). Both run with large deformation, which also
+    leaves the surface term undivided by the particles' shares (docs/method.md)."""
     duration = 3 * WIDTH / SPEED
-    at_rest = slide(False, duration, speed=0.0)
+    at_rest = slide(True, duration, speed=0.0)
     moved = slide(True, duration)
     print("\nat rest:", at_rest, "\nsliding, large deformation:", moved)
     assert moved["replans"] > 10 and abs(moved["slid"] - 3 * WIDTH) < 0.01 * WIDTH

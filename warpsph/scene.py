@@ -114,7 +114,8 @@ class Simulation:
     """Points whose smallest correction-matrix eigenvalue is below this form the free-surface band."""
     large_deformation: bool = False
     """Re-plan the mirror ghosts from the current positions whenever a point has moved farther than
-    the ghost margin since the last plan (flows, collapses); off, the start's layout is kept."""
+    the ghost margin since the last plan (flows, collapses); off, the start's layout is kept. On, the
+    surface band's traction term is not divided by the particles' shares (docs/method.md)."""
     virtual_points: str = "advected"
     """Large deformation: "advected" (virtual points move with their half-step velocity) or
     "regenerated" (rebuilt on the start's lattice from the real particles at every ghost re-plan)."""

@@ -185,7 +185,8 @@ class Solver:
                 m.material_wave_speed, so.particle_q, so.particle_v, so.particle_stress, so.particle_density,
                 self.virtual_p, self._water_density, si.particle_plastic_strain, m.material_plasticity,
                 so.particle_plastic_strain, int(self.shifting), real(m.scene.simulation.particle_shifting), self.real_shift,
-                own, real(m.scene.simulation.stress_filter), real(m.scene.simulation.velocity_filter)],
+                own, real(m.scene.simulation.stress_filter), real(m.scene.simulation.velocity_filter),
+                int(not m.scene.simulation.large_deformation)],
                m.device)  # fmt: skip
 
     def _virtual_continuity(self, si: State, so: State, t: float, dt: float) -> None:

@@ -11,11 +11,14 @@ band (points whose smallest correction eigenvalue is below the scene's threshold
 weak-form surface term (σ̄n)(S·n), S = Σ_b V_b (ψ_b e_b − φ_b) with the weights of the point in
 the sources' fits: the surface force that the negative adjoint of the sources' gradient operators
 (an energy-conserving divergence) gives a uniform stress, kept to its normal-traction part so that
-large stresses along a surface do not amplify particle-disorder noise. Tried and rejected (see
-docs/method.md): projecting the normal traction out of surface stresses (grew without bound in a
-free block) and the full adjoint divergence in the band (broke down under 1 MPa of compression).
-The band's divergence is not energy-conserving: a thin free plate gains energy (docs/stability.md,
-"Free plate", with the variants measured).
+large stresses along a surface do not amplify particle-disorder noise. In the full step that force
+is divided by the particle's share s_a = Σ_i V_i ψ_i(a) of the virtual points' fits (about 0.6 on a
+flat face, 1 inside; floored at ``SURFACE_SHARE_FLOOR``; not with large deformation): the adjoint's
+force acts on the part of the body the particle's shape function covers, the fit's divergence per
+unit of the particle's whole volume, and without the division a thin free plate gained energy
+(docs/method.md, "Choice — the surface term per unit of the particle's share"). Tried and rejected (see docs/method.md): projecting the normal traction out of surface
+stresses (grew without bound in a free block) and the full adjoint divergence in the band (broke
+down under 1 MPa of compression).
 With the plasticity effect the source also relaxes the stress (Perzyna, method.md "Viscoplasticity"),
 applied after the flux (sequential splitting): σ* = Φⁿ + Δt Dᵉ:d, then ΔS is integrated from σ* and
 the equivalent plastic strain ε̄ (fitted from the reals at the virtual points, the real particle's
@@ -47,6 +50,12 @@ from warpsph.sph.spec import Spec
 from warpsph.stages.shifting import shifting_kernels
 
 
+SURFACE_SHARE_FLOOR = 0.625
+"""Smallest share s_a [-] the full step's surface term is divided by (so at most 1.6 times the
+undivided term): a flat face's share is about 0.61, an edge's or a corner's lower. Measured on the
+free plate: floored at 0.7 it gains 2.6 % of its energy, at 0.625 it loses energy (docs/method.md)."""
+
+
 @functools.cache
 def taylor_kernels(spec: Spec):
     """``(half_step, full_step, virtual_continuity, motion_over_step)`` kernels for ``spec``."""
@@ -56,6 +65,7 @@ def taylor_kernels(spec: Spec):
     shift_scaled = shifting_kernels(spec)[2]
     hooke_rate, source_increment, split_velocity_gradient = elastic_functions(spec)
     zero, half, one, two, two_thirds = real(0.0), real(0.5), real(1.0), real(2.0), real(2.0 / 3.0)
+    share_floor = real(SURFACE_SHARE_FLOOR)
     moves = vec3(*map(real, spec.axis_mask))  # points move only along the used axes (1D shear: v_x ≠ 0)
     pore_water = spec.effects.pore_water
     plasticity = spec.effects.plasticity
@@ -93,13 +103,14 @@ def taylor_kernels(spec: Spec):
         sigmas: wp.array(dtype=mat33), h: real, c: vec3, inv_den: real, Minv: mat33, e: vec3,
         src_c: wp.array(dtype=vec3), src_inv_den: wp.array(dtype=real), src_minv: wp.array(dtype=mat33),
         src_e: wp.array(dtype=vec3), in_surface_band: bool, ps: wp.array(dtype=wp.float64), mid: real,
-        water_on_surface: real,
+        water_on_surface: real, per_share: bool,
     ):  # fmt: skip
         """Velocity, effective stress, velocity gradient G[k,j] = ∂v_j/∂x_k, divergence of the total
         stress σ′ − pI and pore pressure fitted at x from the sources; in the surface band the
         divergence gains the weak normal-traction term of σ′ − w pI (w = ``water_on_surface``: 1 at an
         impermeable free surface, 0 at a drained one, whose zero pore pressure the fitted gradient
-        already takes from its Dirichlet rows). The sources' positions are those at tⁿ; the
+        already takes from its Dirichlet rows), divided by the point's share of the sources' fits
+        when ``per_share`` (the full step, whose real particles carry the mass). The sources' positions are those at tⁿ; the
         gradients of v and σ′ (G, the divergence, the surface normal and weights) are taken on the
         configuration x + mid·v [s] where those fields live, through F⁻ᵀ = (I + mid G)⁻¹ (mid = 0: at
         tⁿ); the pore pressure's stays at tⁿ (the full step's is the lagged pⁿ)."""
@@ -111,6 +122,7 @@ def taylor_kernels(spec: Spec):
         ds1 = mat33(zero)
         ds2 = mat33(zero)
         surface_sum = vec3(zero, zero, zero)
+        share = zero  # Σ_b V_b ψ_b(x): the point's weight in the sources' fits, integrated
         p = wp.float64(0.0)
         grad_p = vec3(zero, zero, zero)
         for k in range(start, end):
@@ -129,6 +141,7 @@ def taylor_kernels(spec: Spec):
             if in_surface_band:
                 psi_b, phi_b = fit_weights(x - xs[b], h, src_c[b], src_inv_den[b], src_minv[b])
                 surface_sum += vol * (psi_b * src_e[b] - phi_b)
+                share += vol * psi_b
         G -= wp.outer(e, v)
         # gradients at tⁿ → on the configuration x + mid·v: ∂/∂x′_m = A[m,k] ∂/∂x_k, A = F⁻ᵀ
         A = wp.inverse(wp.identity(n=3, dtype=real) + mid * G)
@@ -143,7 +156,10 @@ def taylor_kernels(spec: Spec):
         normal_dir = A * e
         if in_surface_band and wp.length(normal_dir) > zero:
             n = -wp.normalize(normal_dir)
-            div += (total * n) * wp.dot(A * surface_sum, n)
+            weight = one
+            if per_share:
+                weight = one / wp.max(share, share_floor)
+            div += (weight * wp.dot(A * surface_sum, n)) * (total * n)
         return v, s, G, div, p
 
     @wp.kernel(enable_backward=False, module="unique", name=f"half_step{variant}" if plasticity else None)
@@ -196,7 +212,7 @@ def taylor_kernels(spec: Spec):
                                      real_stress, h, virt_fit_c[i], virt_fit_inv_den[i], virt_fit_minv[i],
                                      virt_fit_e[i], real_fit_c, real_fit_inv_den, real_fit_minv, real_fit_e,
                                      virt_fit_lambda[i] < surface_threshold, real_p, zero,
-                                     water_on_surface)  # fmt: skip
+                                     water_on_surface, False)  # fmt: skip
         d, spin = split_velocity_gradient(G)
         mat = virt_material[i]
         rho = virt_density[i]
@@ -271,14 +287,17 @@ def taylor_kernels(spec: Spec):
         own_velocity: int,
         stress_filter: real,
         velocity_filter: real,
+        surface_per_share: int,
     ):
+        """``surface_per_share``: 1 to divide the surface term by the particle's share (off with large
+        deformation, docs/method.md)."""
         a = first + wp.tid()
         x = q[a]
         v_half, s_half, G, div, p = fit_fields(x, offsets[a], offsets[a + 1], nbr, virt_q, virt_mass, virt_density,
                                             virt_v_half, virt_stress_half, h, real_fit_c[a], real_fit_inv_den[a],
                                             real_fit_minv[a], real_fit_e[a], virt_fit_c, virt_fit_inv_den,
                                             virt_fit_minv, virt_fit_e, real_fit_lambda[a] < surface_threshold,
-                                            virt_p, half * dt, water_on_surface)  # fmt: skip
+                                            virt_p, half * dt, water_on_surface, surface_per_share != 0)  # fmt: skip
         # gradients on the midpoint configuration (Hughes–Winget): on the configuration at tⁿ a rigid
         # rotation's v^{n+½} has the divergence −Δt ω² (a spinning disc's rim drifted outward by
         # π ωΔt R per turn), and the force of its stress at t^{n+½}, turned by ωΔt/2 since tⁿ, missed
