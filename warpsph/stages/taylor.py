@@ -16,9 +16,9 @@ is divided by the particle's share s_a = Σ_i V_i ψ_i(a) of the virtual points'
 flat face, 1 inside; floored at ``SURFACE_SHARE_FLOOR``; not with large deformation): the adjoint's
 force acts on the part of the body the particle's shape function covers, the fit's divergence per
 unit of the particle's whole volume, and without the division a thin free plate gained energy
-(docs/method.md, "Choice — the surface term per unit of the particle's share"). Tried and rejected (see docs/method.md): projecting the normal traction out of surface
-stresses (grew without bound in a free block) and the full adjoint divergence in the band (broke
-down under 1 MPa of compression).
+(docs/method.md, "Choice — the surface term per unit of the particle's share"). Tried and rejected
+(see docs/method.md): projecting the normal traction out of surface stresses (grew without bound in
+a free block) and the full adjoint divergence in the band (broke down under 1 MPa of compression).
 With the plasticity effect the source also relaxes the stress (Perzyna, method.md "Viscoplasticity"),
 applied after the flux (sequential splitting): σ* = Φⁿ + Δt Dᵉ:d, then ΔS is integrated from σ* and
 the equivalent plastic strain ε̄ (fitted from the reals at the virtual points, the real particle's
@@ -110,10 +110,11 @@ def taylor_kernels(spec: Spec):
         divergence gains the weak normal-traction term of σ′ − w pI (w = ``water_on_surface``: 1 at an
         impermeable free surface, 0 at a drained one, whose zero pore pressure the fitted gradient
         already takes from its Dirichlet rows), divided by the point's share of the sources' fits
-        when ``per_share`` (the full step, whose real particles carry the mass). The sources' positions are those at tⁿ; the
-        gradients of v and σ′ (G, the divergence, the surface normal and weights) are taken on the
-        configuration x + mid·v [s] where those fields live, through F⁻ᵀ = (I + mid G)⁻¹ (mid = 0: at
-        tⁿ); the pore pressure's stays at tⁿ (the full step's is the lagged pⁿ)."""
+        when ``per_share`` (the full step, whose real particles carry the mass). The sources'
+        positions are those at tⁿ; the gradients of v and σ′ (G, the divergence, the surface normal
+        and weights) are taken on the configuration x + mid·v [s] where those fields live, through
+        F⁻ᵀ = (I + mid G)⁻¹ (mid = 0: at tⁿ); the pore pressure's stays at tⁿ (the full step's is the
+        lagged pⁿ)."""
         v = vec3(zero, zero, zero)
         s = mat33(zero)
         G = mat33(zero)
