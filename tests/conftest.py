@@ -1,11 +1,21 @@
-"""Shared fixtures: Warp quiet, a CPU device always and CUDA where present, the shipped scenes."""
+"""Shared fixtures: Warp quiet, a CPU device always and CUDA where present, the shipped scenes.
 
+Under ``pytest -n N`` the N workers share the CPUs: each one's row launches use its share of them
+(``WARPSPH_CPU_THREADS``, unless it is set already)."""
+
+import os
 from pathlib import Path
 
 import pytest
 import warp as wp
 
+from warpsph.environment import default_cpu_threads
+
 wp.config.log_level = wp.LOG_WARNING
+
+_workers = int(os.environ.get("PYTEST_XDIST_WORKER_COUNT", "1"))
+if _workers > 1 and "WARPSPH_CPU_THREADS" not in os.environ:
+    os.environ["WARPSPH_CPU_THREADS"] = str(max(1, default_cpu_threads() // _workers))
 
 SCENES = Path(__file__).resolve().parent.parent / "scenes"
 
