@@ -16,9 +16,11 @@ Covered elsewhere, not repeated here: the load carried by the water without a pr
   two rows, the face particle following the row below it, and the same displacement bounds.
 - **Plane-strain block with a free side** (1 m × 1 m half model: symmetry plane at x = 0, slip base,
   free side at x = 1 m, uniform load ramped over 3 shear transits on its impermeable top, the free
-  surface impermeable): undrained (ν_u = ½) settlement Hσ₀/(4G) within 5 %, and p = σ₀/2 within
-  2 % — measured to miss the pressure (the loaded top rows and the free side are off); and one step
-  about rest of the same block with its top loaded and sealed is linearly stable.
+  surface impermeable), compared as means over transits 6–18 since the block keeps ringing after its
+  ramp: undrained (ν_u = ½) settlement Hσ₀/(4G) within 5 %, the block's mean p within 1 % of σ₀/2, and
+  p = σ₀/2 within 2 % at every particle — measured to miss it at the corner of the loaded top and the
+  free side; and one step about rest of the same block with its top loaded and sealed is linearly
+  stable.
 """
 
 import numpy as np
@@ -114,33 +116,57 @@ def test_loaded_sealed_face_step_is_linearly_stable(side, material):
     assert radius <= 1.0 + 1e-5
 
 
+RINGING = (6.0, 18.0)
+"""Window [shear transits] over which the free-sided block's response is averaged: after its 3-transit
+ramp the undamped elastic skeleton keeps ringing (settlement 0.90–1.02 of Hσ₀/(4G), periods of 2–3
+transits), as an exact solution would, so the static closed form is compared with time means."""
+
+
 @pytest.fixture(scope="module")
 def block_with_a_free_side():
-    """(settlement / Hσ₀/(4G), p/σ₀ of every particle) of the 1 m × 1 m block after 6 shear transits."""
+    """(settlement / Hσ₀/(4G), p/σ₀ of every particle) of the 1 m × 1 m block, each the mean over the
+    ``RINGING`` window."""
     height = 1.0
     shear_transit = height / np.sqrt(UNDRAINED.shear_modulus / UNDRAINED.density)
     scene = block(UNDRAINED, "free", SIGMA0, ramp=3 * shear_transit)
-    steps = int(6 * shear_transit / scene.time_step)
-    model, state, _ = march(scene, steps, lambda k, m, s: finite(m, s))
-    fields = host_fields(model, state)
-    top = np.abs(model.particle_x0[:, 1] - height) < 1e-9
-    settlement = height - fields["position"][top, 1].mean()
-    p = fields["pore_pressure"] / SIGMA0
-    print(f"\nundrained plane-strain block: settlement {settlement / (height * SIGMA0 / (4 * UNDRAINED.shear_modulus)):.4g}"
-          f" of Hσ₀/(4G), p/σ₀ in [{p.min():.4g}, {p.max():.4g}]")
-    return settlement / (height * SIGMA0 / (4 * UNDRAINED.shear_modulus)), p
+    first, last = (int(t * shear_transit / scene.time_step) for t in RINGING)
+    sums = {"samples": 0, "settlement": 0.0, "pressure": 0.0}
+
+    def accumulate(k, model, state):
+        if k >= first:
+            fields = host_fields(model, state)
+            top = np.abs(model.particle_x0[:, 1] - height) < 1e-9
+            sums["settlement"] += height - fields["position"][top, 1].mean()
+            sums["pressure"] = sums["pressure"] + fields["pore_pressure"] / SIGMA0
+            sums["samples"] += 1
+        return finite(model, state)
+
+    march(scene, last, accumulate)
+    settlement = sums["settlement"] / sums["samples"] / (height * SIGMA0 / (4 * UNDRAINED.shear_modulus))
+    p = sums["pressure"] / sums["samples"]
+    print(f"\nundrained plane-strain block, means over transits {RINGING[0]:g}-{RINGING[1]:g}: settlement "
+          f"{settlement:.4g} of Hσ₀/(4G), p/σ₀ in [{p.min():.4g}, {p.max():.4g}], block mean {p.mean():.4g}")
+    return settlement, p
 
 
 def test_plane_strain_block_with_a_free_side_settles_undrained(block_with_a_free_side):
     """No volumetric locking: the undrained (ν_u = ½) settlement Hσ₀/(4G) within 5 % (0.963 while
-    the loaded face's particles kept their pressure)."""
+    the loaded face's particles kept their pressure, a snapshot at 6 transits)."""
     settlement, _ = block_with_a_free_side
     assert abs(settlement - 1.0) < 0.05
 
 
-@expected_failure("p/σ₀ in [0.420, 0.570] after 6 transits, mean 0.503: the loaded top rows 0.42-0.44 near the "
-                  "axis, the free side 0.53-0.57; the block rings after its 3-transit ramp ([0.359, 0.564] before the "
-                  "roughness damping next to sealed faces; measured, docs/stability.md)")
+def test_plane_strain_block_with_a_free_side_carries_half_the_load_in_the_water_on_average(block_with_a_free_side):
+    """The water carries half the load over the block: the mean of p/σ₀ (time means) within 1 % of ½."""
+    _, p = block_with_a_free_side
+    assert abs(p.mean() - 0.5) < 0.005
+
+
+@expected_failure("time means over transits 6-18: p/σ₀ in [0.491, 0.538]; the 7 particles off by 2 % or more "
+                  "lie within 0.3 m of the corner of the loaded top and the free side (0.538 at (1.0, 0.9) m; "
+                  "at Δx = 0.05 m 12 particles within 0.15 m and 0.561 at the corner, so it does not converge "
+                  "there; measured, docs/stability.md)")
 def test_plane_strain_block_with_a_free_side_carries_half_the_load_in_the_water(block_with_a_free_side):
+    """The undrained closed form p = σ₀/2 (time means) within 2 % at every particle."""
     _, p = block_with_a_free_side
     assert np.all(np.abs(p - 0.5) < 0.02)
