@@ -101,55 +101,58 @@ def closest_pair(points: np.ndarray) -> float:
     return best
 
 
-def step_jacobian(scene) -> np.ndarray:
-    """Jacobian of one step of ``scene`` about its initial state (at rest, unstressed), by finite
-    differences: the owned particles' velocity components on the used axes, their stress components
-    and, with pore water, their pore pressure (stress and pressure in units of ρ c of the scene's
-    first material per 1 m/s, so the blocks are of one size); particles stay where they are, which is
-    exact to first order about an unstressed state. Its spectral radius above 1 is a mode that grows
-    by that factor per step."""
+def step_jacobian(scene, geometry: bool = False) -> np.ndarray:
+    """Jacobian of one step of ``scene`` about its initial state, by finite differences: the owned
+    particles' velocity components on the used axes, their stress components and, with pore water,
+    their pore pressure (stress and pressure in units of ρ c of the scene's first material per 1 m/s,
+    so the blocks are of one size). Without ``geometry`` the particles stay where they are, which is
+    exact to first order about an unstressed state; with it the state also holds the positions of the
+    real particles and of the virtual points (in units of c Δt) and their densities (in units of ρ),
+    which a prestressed state's step depends on. Its spectral radius above 1 is a mode that grows by
+    that factor per step."""
     model, base = build(scene)
     state, out = model.state(), model.state()
     solver, dt = Solver(model), scene.time_step
-    n = model.particle_count
+    n, nv = model.particle_count, model.virtual_count
     used = used_axes(scene.simulation.dim)
     pairs = [(i, j) for i in range(3) for j in range(i, 3) if (i in used and j in used) or i == j]
     material = next(iter(scene.materials.values()))
     unit = material.density * material.p_wave_speed
-    fields = [("v", k) for k in used] + [("stress", pair) for pair in pairs]
+    length = material.p_wave_speed * dt
+    # (state array, owned count, component (None: a scalar array), scale of one unit)
+    fields = [("particle_v", n, k, 1.0) for k in used] + [("particle_stress", n, pair, unit) for pair in pairs]
     if scene.effects.pore_water:
-        fields.append(("pressure", None))
-    eps = 1e-6
+        fields.append(("particle_pore_pressure", n, None, unit))
+    if geometry:
+        fields += [(name, count, k, length) for name, count in (("particle_q", n), ("virtual_q", nv)) for k in used]
+        fields += [("particle_density", n, None, material.density), ("virtual_density", nv, None, material.density)]
+    eps = 1e-6 if not geometry else 1e-7
 
     def pack(s) -> np.ndarray:
-        v = s.particle_v.numpy()[:n].astype(np.float64)
-        sigma = s.particle_stress.numpy()[:n].astype(np.float64) / unit
-        parts = [v[:, k] for k in used] + [sigma[:, i, j] for i, j in pairs]
-        if scene.effects.pore_water:
-            parts.append(s.particle_pore_pressure.numpy()[:n] / unit)
+        parts = []
+        for name, count, comp, scale in fields:
+            values = getattr(s, name).numpy()[:count].astype(np.float64) / scale
+            parts.append(values if comp is None else values[(slice(None), *np.atleast_1d(comp))])
         return np.concatenate(parts)
 
-    def perturb(field: str, comp, a: int) -> None:
-        if field == "v":
-            v = state.particle_v.numpy()
-            v[a, comp] += eps
-            state.particle_v.assign(v)
-        elif field == "stress":
-            s = state.particle_stress.numpy()
-            s[a, comp[0], comp[1]] += eps * unit
-            if comp[0] != comp[1]:
-                s[a, comp[1], comp[0]] += eps * unit
-            state.particle_stress.assign(s)
+    def perturb(name: str, comp, a: int, scale: float) -> None:
+        values = getattr(state, name).numpy()
+        if comp is None:
+            values[a] += eps * scale
         else:
-            p = state.particle_pore_pressure.numpy()
-            p[a] += eps * unit
-            state.particle_pore_pressure.assign(p)
+            values[(a, *np.atleast_1d(comp))] += eps * scale
+            if isinstance(comp, tuple) and comp[0] != comp[1]:
+                values[a, comp[1], comp[0]] += eps * scale
+        getattr(state, name).assign(values)
 
-    rest = pack(base)
+    state.assign(base)
+    solver.step(state, out, 0.0, dt)
+    rest = pack(out)  # the unperturbed step (at rest and unstressed: the state itself)
     jacobian = np.zeros((rest.size, rest.size))
-    for column, ((field, comp), a) in enumerate((f, a) for f in fields for a in range(n)):
+    columns = ((name, comp, a, scale) for name, count, comp, scale in fields for a in range(count))
+    for column, (name, comp, a, scale) in enumerate(columns):
         state.assign(base)
-        perturb(field, comp, a)
+        perturb(name, comp, a, scale)
         solver.step(state, out, 0.0, dt)
         jacobian[:, column] = (pack(out) - rest) / eps
     return jacobian
