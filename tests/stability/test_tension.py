@@ -20,8 +20,8 @@ spread); the largest speed stays below 2 v₀ (plus the lateral motion).
 the start: it expands towards the centrifugal state, in tension, and breathes about it), two turns:
 the total energy (kinetic + strain, :func:`stability_tools.energy`) never rises more than 0.1 %,
 the closest pair stays above half the initial spacing; and the rim keeps its radius: the closed-form
-plane-strain expansion is u(R)/R = (1 − ν′) ρω²R²/(4E′) = 0.17 % (E′ = E/(1 − ν²), ν′ = ν/(1 − ν)),
-about which a disc started at rest in its frame breathes between 0 and twice that, so the mean rim
+plane-strain expansion is u(R)/R = (1 − ν′) ρω²R²/(4E′) = 0.17 % (E′ = E/(1 − ν²),
+ν′ = ν/(1 − ν)), about which a disc started at rest in its frame breathes between 0 and twice that, so the mean rim
 radius must stay within 0.5 % of R.
 """
 
@@ -102,7 +102,8 @@ def stretch(scheme: str, sides: str, strain: float):
 def check_bar(rows, label):
     after_first = rows[2:]
     print(f"\n{label}: closest pair {np.nanmin(rows[:, 1]):.3f} Δx, stress noise after the first transit "
-          f"{np.max(after_first[:, 2]):.2e} (at the end {rows[-1, 2]:.2e}), largest speed {np.max(rows[:, 3]):.3g} v₀")
+          f"{np.max(after_first[:, 2]):.2e} (at the end {rows[-1, 2]:.2e}), "
+          f"largest speed {np.max(rows[:, 3]):.3g} v₀")
     assert np.all(np.isfinite(rows))
     assert np.min(rows[:, 1]) > 0.5
     assert np.max(after_first[:, 2]) < 0.01
@@ -190,8 +191,8 @@ def test_spinning_disc_keeps_its_radius(scheme, alpha, options):
     full step took its rate of deformation on the step's midpoint configuration, a rigid rotation's
     half-step velocity read as a compression and the rim drifted outward by π ωΔt R per turn."""
     rows = spin(scheme, alpha, **dict(options))
-    print(f"\n{scheme}, α = {alpha}, {dict(options)}: mean rim radius +{100 * rows[-1, 1]:.2f} % R after {rows[-1, 0]:.2f} turns "
-          f"({100 * rows[-1, 1] / rows[-1, 0]:.2f} % per turn)")
+    print(f"\n{scheme}, α = {alpha}, {dict(options)}: mean rim radius +{100 * rows[-1, 1]:.2f} % R "
+          f"after {rows[-1, 0]:.2f} turns ({100 * rows[-1, 1] / rows[-1, 0]:.2f} % per turn)")
     assert np.max(np.abs(rows[:, 1])) < 0.005
 
 

@@ -34,8 +34,8 @@ from warpsph.model import PLANE_TRACTION, Model
 from warpsph.scene import EXTENT_TOLERANCE
 from warpsph.stages.linear_solve import LinearSolver
 from warpsph.stages.pressure_kernels import (
-    DRAINING_RATIO,
     LOW_PERMEABILITY_WEIGHT,
+    faded_by_draining,
     laplacian_scale,
     lattice_morris_sum,
     pressure_kernels,
@@ -131,7 +131,7 @@ class PressureProjection:
         permeability = m.pore.material_permeability.numpy()
         draining = min(permeability[i] * materials[i].density / m.scene.time_step
                        for i in np.unique(m.particle_material.numpy()[: m.particle_count]))
-        return LOW_PERMEABILITY_WEIGHT / (1.0 + draining / DRAINING_RATIO)
+        return float(faded_by_draining(wp.float64(LOW_PERMEABILITY_WEIGHT), wp.float64(draining)))
 
     def _face_factor(self) -> np.ndarray:
         """½ per plane a particle lies on: the share of its cell inside the body. Scaling its row by

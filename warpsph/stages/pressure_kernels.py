@@ -38,6 +38,13 @@ LOW_PERMEABILITY_WEIGHT = 0.02
 loaded impermeable faces where the Darcy part does not drain (k ρ/Δt → 0); faded by DRAINING_RATIO."""
 
 
+@wp.func
+def faded_by_draining(weight: wp.float64, draining: wp.float64) -> wp.float64:
+    """A roughness-damping weight faded as a pair's Darcy part drains, ``draining`` = k ρ/Δt [-]
+    (halved at DRAINING_RATIO). Called from kernels and, with ``wp.float64`` arguments, from Python."""
+    return weight / (wp.float64(1.0) + draining / wp.float64(DRAINING_RATIO))
+
+
 def _lattice_distances(dim: int, ratio: float) -> np.ndarray:
     """Distances from a point of the lattice of spacing 1 to the others within the support 2h (h = ratio)."""
     span = int(math.ceil(2.0 * ratio))
@@ -494,7 +501,7 @@ def pressure_kernels(spec: Spec):
                     if near_surface[a] == NEAR_SEALED_FACE or near_surface[col] == NEAR_SEALED_FACE:
                         base = stabilisation
                     draining = k_pair / (dt_rho_a + f64(dt) / f64(density[j]))  # k ρ/Δt
-                    theta = wp.max(base / (f64(1.0) + draining / f64(DRAINING_RATIO)), interior_stabilisation)
+                    theta = wp.max(faded_by_draining(base, draining), interior_stabilisation)
                 b -= theta * w_dt * (rough[a] - rough[col])
             coefficient = w_k * s + w_dt * s_dt  # the ghost's parities folded in: A x = diag x − Σ weight x[column]
             if dirichlet[col] == 1:

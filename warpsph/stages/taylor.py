@@ -142,7 +142,8 @@ def taylor_kernels(spec: Spec):
             if in_surface_band:
                 psi_b, phi_b = fit_weights(x - xs[b], h, src_c[b], src_inv_den[b], src_minv[b])
                 surface_sum += vol * (psi_b * src_e[b] - phi_b)
-                share += vol * psi_b
+                if per_share:
+                    share += vol * psi_b
         G -= wp.outer(e, v)
         # gradients at tⁿ → on the configuration x + mid·v: ∂/∂x′_m = A[m,k] ∂/∂x_k, A = F⁻ᵀ
         A = wp.inverse(wp.identity(n=3, dtype=real) + mid * G)
