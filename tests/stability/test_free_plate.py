@@ -7,12 +7,13 @@ of 1 mm/s (standard deviation per component), Δx = 0.1 m, Courant 0.5. Nothing 
 - its total energy (kinetic + strain, :func:`stability_tools.energy`) never rises more than 0.1 % over
   3 000 steps (1.8 s, about 75 transits along it);
 - one step about rest is linearly stable: the spectral radius of its Jacobian
-  (:func:`stability_tools.step_jacobian`, velocities and stresses of all 105 particles) is at most 1.
+  (:func:`stability_tools.step_jacobian`, velocities and stresses of all 105 particles) is at most 1 + 1e-7.
 
 Measured (docs/stability.md, *Free plate*): with the full step's surface term per unit of the
-particle's share of the virtual points' fits (session 14) the seeded plate loses energy (0.121 of it
-left after 3 000 steps) and one step's spectral radius is 1.000059 (0.10 /s), the share's floor of
-0.625 leaving the face particles (share 0.61) a little short. Before it the band created energy: a
+particle's share of the virtual points' fits (session 14) the seeded plate loses energy, and with the
+share floored at 0.45 (session 16), below a flat face's share of 0.61, one step's spectral radius is
+1.000000023, the time integrator's own growth ((ωΔt)⁴/8 at the plate's slowest pair; 1.000059, 0.10 /s,
+floored at 0.625, which left the face particles a little short). Before it the band created energy: a
 smooth mode of the plate (ω ≈ 222 rad/s) grew by 0.27 % per step (21 /s semi-discrete), at every
 spacing tried (4.4, 11.7, 2.3 and 7.8 /s at Δx = 0.1, 0.05, 0.025 and 0.0125 m, Courant 0.5).
 """
@@ -21,7 +22,7 @@ import functools
 
 import numpy as np
 import pytest
-from stability_tools import SOLID, energy, expected_failure, largest_rise, march, scheme_params, step_jacobian
+from stability_tools import SOLID, energy, largest_rise, march, scheme_params, step_jacobian
 
 from warpsph.scene import Body, Scene, Simulation
 
@@ -65,16 +66,12 @@ def test_free_plate_creates_no_energy(scheme):
     assert largest_rise(e) <= 1e-3
 
 
-@pytest.mark.parametrize("scheme", [pytest.param("two_set", marks=expected_failure(
-    "spectral radius 1.000059 (a pair at 0.0204 rad a step, 0.10 /s; 1.0027 at 222 rad/s before the full "
-    "step's surface term was divided by the particle's share): the share's floor of 0.625 leaves the "
-    "plate's face particles (share 0.61) a little short; floored at 0.5 it is 1.00000026, at 0.45 "
-    "1.000000023, but then the block under gravity exceeds its speed bound (measured, docs/stability.md)"))])
-def test_free_plate_step_is_linearly_stable(scheme):
+def test_free_plate_step_is_linearly_stable():
+    scheme = "two_set"
     scene = plate(scheme)
     eigenvalues = np.linalg.eigvals(step_jacobian(scene))
     top = eigenvalues[np.argmax(np.abs(eigenvalues))]
     rate = np.log(np.abs(top)) / scene.time_step
-    print(f"\n{scheme}: spectral radius {np.abs(top):.6f} (angle {np.angle(top):.4f} per step), "
+    print(f"\n{scheme}: spectral radius {np.abs(top):.9f} (angle {np.angle(top):.4f} per step), "
           f"growth {rate:.2f} /s")
     assert np.abs(top) <= 1.0 + 1e-7
