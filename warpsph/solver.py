@@ -186,7 +186,7 @@ class Solver:
                 self.virtual_p, self._water_density, si.particle_plastic_strain, m.material_plasticity,
                 so.particle_plastic_strain, int(self.shifting), real(m.scene.simulation.particle_shifting), self.real_shift,
                 own, real(m.scene.simulation.stress_filter), real(m.scene.simulation.velocity_filter),
-                int(not m.scene.simulation.large_deformation)],
+                int(not m.scene.simulation.large_deformation), real(m.scene.simulation.dx)],
                m.device)  # fmt: skip
 
     def _virtual_continuity(self, si: State, so: State, t: float, dt: float) -> None:

@@ -41,19 +41,18 @@ from warpsph.stages.pressure_kernels import (
     pressure_kernels,
 )
 
-STABLE_SURFACE_RATIO = {"drained": 0.05, "impermeable": 0.01}
+STABLE_SURFACE_RATIO = {"drained": 0.015, "impermeable": 0.01}
 """k ρ/Δt (the Darcy part of the projection's Laplacian over its Δt/ρ part) from which a free surface
 of each kind is stable at every Courant number measured without the roughness damping
 (``pressure.stabilisation`` = 0; also used below 1, where it was not measured). One step about rest
-then has a real eigenvalue above 1, a pore pressure mode under the surface, below 0.040, 0.034,
-0.024 and 0.020 at Courant 0.05–0.1, 0.25, 0.5 and 0.9 for a drained surface (whatever E and K_w),
-and below about 0.003 at Courant 0.5 and 0.005 at 0.9 for an impermeable one, growing at up to
-70 /s and 9 /s (docs/method.md, *Known limits*)."""
-DAMPED_STABLE_SURFACE_RATIO = {"drained": 0.01, "impermeable": 0.0}
-"""The same with the roughness damping at full weight (θ = 1): an impermeable surface stable down to
-k_h = 1e-12 m/s at Courant 0.1–0.9 (1D column); a drained one stable at k ρ/Δt = 0.0071, 0.0014
-and 0.00079 at Courant 0.1, 0.5 and 0.9, with a slow mode below (0.015–0.28 /s in 1D, 1.7 /s in a
-2D column at k_h = 1e-8 m/s) instead of 52 /s."""
+then has a real eigenvalue above 1, a pore pressure mode under the surface: for a drained surface
+(whose band pushes with the total stress extrapolated to the surface) at 0.0071, 0.0071, 0.0028 and
+0.0016 and not at 0.0142, 0.0142, 0.0047 and 0.0026 at Courant 0.05, 0.1, 0.5 and 0.9 (1D and 2D
+columns, growing at up to 24 /s); for an impermeable one below about 0.003 at Courant 0.5 and 0.005
+at 0.9, growing at up to 9 /s (docs/method.md, *Known limits*)."""
+DAMPED_STABLE_SURFACE_RATIO = {"drained": 0.0, "impermeable": 0.0}
+"""The same with the roughness damping at full weight (θ = 1): impermeable and drained surfaces
+stable down to k_h = 1e-12 m/s at Courant 0.1–0.9 (1D column; drained also a 2D one)."""
 NEGLIGIBLE_WEIGHT = 1e-3
 """Relative weight below which the roughness damping away from free surfaces and sealed faces is not
 computed: where every material in use drains k ρ/Δt > 0.19 a step (e.g. Terzaghi's set A, 0.24)."""
@@ -308,9 +307,7 @@ class PressureProjection:
                 f"material {name!r} under a free surface (pressure.free_surface = {kind!r}): k ρ/Δt = "
                 f"{ratio[worst]:.3g} is below {limit}, where the pore pressure under such a surface can grow without "
                 "bound (docs/method.md, Known limits); make that face a plane (a zero-traction load with its "
-                f"drainage), lower simulation.courant to {courant:.2g}"
-                + (" or set pressure.interior_stabilisation (0.05 removed the slow mode measured)"
-                   if kind == "drained" and self.settings.stabilisation == 1.0 else ""))
+                f"drainage), lower simulation.courant to {courant:.2g}")
             warnings.warn(self.surface_warning, stacklevel=2)
 
     def _gradient(self, state, values, homogeneous: bool, momentum: bool = False) -> None:

@@ -11,7 +11,9 @@ band (points whose smallest correction eigenvalue is below the scene's threshold
 weak-form surface term (σ̄n)(S·n), S = Σ_b V_b (ψ_b e_b − φ_b) with the weights of the point in
 the sources' fits: the surface force that the negative adjoint of the sources' gradient operators
 (an energy-conserving divergence) gives a uniform stress, kept to its normal-traction part so that
-large stresses along a surface do not amplify particle-disorder noise. In the full step that force
+large stresses along a surface do not amplify particle-disorder noise; at a drained free surface of
+saturated soil σ̄ is the total stress extrapolated to the surface (zero under a geostatic layer,
+where the point's own stress one row in is not; docs/method.md). In the full step that force
 is divided by the particle's share s_a = Σ_i V_i ψ_i(a) of the virtual points' fits (about 0.6 on a
 flat face, 1 inside; floored at ``SURFACE_SHARE_FLOOR``; not with large deformation): the adjoint's
 force acts on the part of the body the particle's shape function covers, the fit's divergence per
@@ -98,20 +100,41 @@ def taylor_kernels(spec: Spec):
         return value
 
     @wp.func
+    def stress_on_drained_surface(
+        x: vec3, start: int, end: int, nbr: wp.array(dtype=wp.int32), xs: wp.array(dtype=vec3), n: vec3,
+        beyond_sources: real, At: mat33, s: mat33, ds0: mat33, ds1: mat33, ds2: mat33, e: vec3, p: real,
+        grad_p: vec3,
+    ):  # fmt: skip
+        """The total stress σ′ − pI on a drained free surface: extrapolated from x along its outward
+        normal n by the fitted gradients to the surface, which lies ``beyond_sources`` [m] past the
+        outermost source along n (the depth clamped at zero). ∂σ′/∂x_k − e_k σ′ are at tⁿ and mapped
+        by At = F⁻¹ onto the configuration the normal lives on; the pore pressure's stay at tⁿ."""
+        reach = real(-1.0e30)
+        for k in range(start, end):
+            reach = wp.max(reach, wp.dot(xs[nbr[k]] - x, n))
+        depth = wp.max(reach + beyond_sources, zero)
+        An = At * n  # n·∇ on that configuration, as weights of the ∂/∂x_k at tⁿ
+        slope = An[0] * (ds0 - e[0] * s) + An[1] * (ds1 - e[1] * s) + An[2] * (ds2 - e[2] * s)
+        p_surface = p + depth * wp.dot(grad_p - p * e, n)
+        return s + depth * slope - p_surface * wp.identity(3, dtype=real)
+
+    @wp.func
     def fit_fields(
         x: vec3, start: int, end: int, nbr: wp.array(dtype=wp.int32), xs: wp.array(dtype=vec3),
         ms: wp.array(dtype=real), rhos: wp.array(dtype=real), vs: wp.array(dtype=vec3),
         sigmas: wp.array(dtype=mat33), h: real, c: vec3, inv_den: real, Minv: mat33, e: vec3,
         src_c: wp.array(dtype=vec3), src_inv_den: wp.array(dtype=real), src_minv: wp.array(dtype=mat33),
         src_e: wp.array(dtype=vec3), in_surface_band: bool, ps: wp.array(dtype=wp.float64), mid: real,
-        water_on_surface: real, per_share: bool,
+        water_on_surface: real, per_share: bool, beyond_sources: real,
     ):  # fmt: skip
         """Velocity, effective stress, velocity gradient G[k,j] = ∂v_j/∂x_k, divergence of the total
         stress σ′ − pI and pore pressure fitted at x from the sources; in the surface band the
         divergence gains the weak normal-traction term of σ′ − w pI (w = ``water_on_surface``: 1 at an
         impermeable free surface, 0 at a drained one, whose zero pore pressure the fitted gradient
         already takes from its Dirichlet rows), divided by the point's share of the sources' fits
-        when ``per_share`` (the full step, whose real particles carry the mass). The sources'
+        when ``per_share`` (the full step, whose real particles carry the mass). At a drained free
+        surface the term takes the total stress extrapolated to the surface, ``beyond_sources`` [m]
+        past the outermost source (``stress_on_drained_surface``), not the point's own. The sources'
         positions are those at tⁿ; the gradients of v and σ′ (G, the divergence, the surface normal
         and weights) are taken on the configuration x + mid·v [s] where those fields live, through
         F⁻ᵀ = (I + mid G)⁻¹ (mid = 0: at tⁿ); the pore pressure's stays at tⁿ (the full step's is the
@@ -159,6 +182,10 @@ def taylor_kernels(spec: Spec):
         normal_dir = A * e
         if in_surface_band and wp.length(normal_dir) > zero:
             n = -wp.normalize(normal_dir)
+            if wp.static(pore_water):
+                if water_on_surface == zero:
+                    total = stress_on_drained_surface(x, start, end, nbr, xs, n, beyond_sources, At, s, ds0, ds1,
+                                                      ds2, e, real(p), grad_p)  # fmt: skip
             weight = one
             if per_share:
                 weight = one / wp.max(share, share_floor)
@@ -215,7 +242,7 @@ def taylor_kernels(spec: Spec):
                                      real_stress, h, virt_fit_c[i], virt_fit_inv_den[i], virt_fit_minv[i],
                                      virt_fit_e[i], real_fit_c, real_fit_inv_den, real_fit_minv, real_fit_e,
                                      virt_fit_lambda[i] < surface_threshold, real_p, zero,
-                                     water_on_surface, False)  # fmt: skip
+                                     water_on_surface, False, zero)  # fmt: skip
         d, spin = split_velocity_gradient(G)
         mat = virt_material[i]
         rho = virt_density[i]
@@ -291,16 +318,19 @@ def taylor_kernels(spec: Spec):
         stress_filter: real,
         velocity_filter: real,
         surface_per_share: int,
+        spacing: real,
     ):
         """``surface_per_share``: 1 to divide the surface term by the particle's share (off with large
-        deformation, docs/method.md)."""
+        deformation, docs/method.md); ``spacing``: the lattice spacing Δx [m], the virtual points lying half
+        of it inside a free surface whose real particles lie on it."""
         a = first + wp.tid()
         x = q[a]
         v_half, s_half, G, div, p = fit_fields(x, offsets[a], offsets[a + 1], nbr, virt_q, virt_mass, virt_density,
                                             virt_v_half, virt_stress_half, h, real_fit_c[a], real_fit_inv_den[a],
                                             real_fit_minv[a], real_fit_e[a], virt_fit_c, virt_fit_inv_den,
                                             virt_fit_minv, virt_fit_e, real_fit_lambda[a] < surface_threshold,
-                                            virt_p, half * dt, water_on_surface, surface_per_share != 0)  # fmt: skip
+                                            virt_p, half * dt, water_on_surface, surface_per_share != 0,
+                                            half * spacing)  # fmt: skip
         # gradients on the midpoint configuration (Hughes–Winget): on the configuration at tⁿ a rigid
         # rotation's v^{n+½} has the divergence −Δt ω² (a spinning disc's rim drifted outward by
         # π ωΔt R per turn), and the force of its stress at t^{n+½}, turned by ωΔt/2 since tⁿ, missed
