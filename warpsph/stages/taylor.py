@@ -102,21 +102,20 @@ def taylor_kernels(spec: Spec):
     @wp.func
     def stress_on_drained_surface(
         x: vec3, start: int, end: int, nbr: wp.array(dtype=wp.int32), xs: wp.array(dtype=vec3), n: vec3,
-        beyond_sources: real, At: mat33, s: mat33, ds0: mat33, ds1: mat33, ds2: mat33, e: vec3, p: real,
-        grad_p: vec3,
+        beyond_sources: real, At: mat33, s: mat33, d0: mat33, d1: mat33, d2: mat33, p: real, dp: vec3,
     ):  # fmt: skip
         """The total stress σ′ − pI on a drained free surface: extrapolated from x along its outward
         normal n by the fitted gradients to the surface, which lies ``beyond_sources`` [m] past the
-        outermost source along n (the depth clamped at zero). ∂σ′/∂x_k − e_k σ′ are at tⁿ and mapped
-        by At = F⁻¹ onto the configuration the normal lives on; the pore pressure's stay at tⁿ."""
+        outermost source along n (the depth clamped at zero). The gradients d_k = ∂σ′/∂x_k and
+        dp = ∇p are at tⁿ; σ′'s are mapped by At = F⁻¹ onto the configuration n lives on, the pore
+        pressure's stays at tⁿ."""
         reach = real(-1.0e30)
         for k in range(start, end):
             reach = wp.max(reach, wp.dot(xs[nbr[k]] - x, n))
         depth = wp.max(reach + beyond_sources, zero)
         An = At * n  # n·∇ on that configuration, as weights of the ∂/∂x_k at tⁿ
-        slope = An[0] * (ds0 - e[0] * s) + An[1] * (ds1 - e[1] * s) + An[2] * (ds2 - e[2] * s)
-        p_surface = p + depth * wp.dot(grad_p - p * e, n)
-        return s + depth * slope - p_surface * wp.identity(3, dtype=real)
+        slope = An[0] * d0 + An[1] * d1 + An[2] * d2
+        return s + depth * slope - (p + depth * wp.dot(dp, n)) * wp.identity(3, dtype=real)
 
     @wp.func
     def fit_fields(
@@ -173,11 +172,15 @@ def taylor_kernels(spec: Spec):
         A = wp.inverse(wp.identity(n=3, dtype=real) + mid * G)
         G = A * G
         At = wp.transpose(A)
-        # div_j = ∂σ′_mj/∂x′_m = Σ_k (∂σ′/∂x_k)_jm A[m,k] (σ′ symmetric)
-        div = (ds0 - e[0] * s) * At[0] + (ds1 - e[1] * s) * At[1] + (ds2 - e[2] * s) * At[2]
+        # ∂σ′/∂x_k at tⁿ; div_j = ∂σ′_mj/∂x′_m = Σ_k (∂σ′/∂x_k)_jm A[m,k] (σ′ symmetric)
+        ds0 -= e[0] * s
+        ds1 -= e[1] * s
+        ds2 -= e[2] * s
+        div = ds0 * At[0] + ds1 * At[1] + ds2 * At[2]
         total = s
         if wp.static(pore_water):
-            div -= grad_p - real(p) * e  # pⁿ, a field at tⁿ: its gradient stays on that configuration
+            grad_p -= real(p) * e
+            div -= grad_p  # pⁿ, a field at tⁿ: its gradient stays on that configuration
             total = s - water_on_surface * real(p) * wp.identity(3, dtype=real)
         normal_dir = A * e
         if in_surface_band and wp.length(normal_dir) > zero:
@@ -185,7 +188,7 @@ def taylor_kernels(spec: Spec):
             if wp.static(pore_water):
                 if water_on_surface == zero:
                     total = stress_on_drained_surface(x, start, end, nbr, xs, n, beyond_sources, At, s, ds0, ds1,
-                                                      ds2, e, real(p), grad_p)  # fmt: skip
+                                                      ds2, real(p), grad_p)  # fmt: skip
             weight = one
             if per_share:
                 weight = one / wp.max(share, share_floor)
