@@ -268,14 +268,18 @@ def test_layer_at_rest_under_a_drained_top_plane(tmp_path_factory):
     assert layer_excess_pressure(tmp_path_factory, LAYER + DRAINED_TOP_PLANE, "layer_plane").max() < 1.0
 
 
-def test_layer_at_rest_under_a_drained_free_surface(tmp_path_factory):
+@pytest.mark.parametrize("free_surface", ["drained", "impermeable"])
+def test_layer_at_rest_under_a_free_surface(tmp_path_factory, free_surface):
     """A drained free surface holds zero pore pressure through its Dirichlet rows, and its surface
-    band pushes with the total stress extrapolated to the surface, zero on a geostatic layer: the
-    layer stays at rest to round-off (measured: 4e-11 Pa). With the effective stress of the band's
-    own particles, which one row in is not zero, the row below the surface gained excess pore pressure:
-    3.7, 3.4 and 3.2 kPa at 0.1, 0.2 and 0.3 s (2.69 to 2.56 kPa with the roughness damping); with
-    their own excess pressure as well, which fed back on itself, 26, 67 and 95 kPa (docs/method.md,
-    *Drained free surfaces*)."""
-    excess = layer_excess_pressure(tmp_path_factory, LAYER, "layer_free")
-    print(f"\nlayer under a drained free surface: largest excess pore pressure {excess} Pa")
+    band pushes with the total stress extrapolated to the surface; an impermeable one with its
+    particles' own total traction carried to the surface by the weight of the soil between. Both are
+    zero on a geostatic layer: the layer stays at rest to round-off (measured: 4e-11 Pa drained,
+    3e-10 Pa impermeable). With the effective stress of the band's own particles, which one row in is
+    not zero, the row below a drained surface gained excess pore pressure: 3.7, 3.4 and 3.2 kPa at
+    0.1, 0.2 and 0.3 s (2.69 to 2.56 kPa with the roughness damping); with their own excess pressure
+    as well, which fed back on itself, 26, 67 and 95 kPa; under an impermeable surface with its own
+    total stress 17.1 kPa at 0.3 s (docs/method.md, *Drained free surfaces*)."""
+    text = LAYER + ("" if free_surface == "drained" else '[pressure]\nfree_surface = "impermeable"\n')
+    excess = layer_excess_pressure(tmp_path_factory, text, f"layer_{free_surface}")
+    print(f"\nlayer, {free_surface} free surface: largest excess pore pressure {excess} Pa")
     assert excess.max() < 1e-6 * HYDROSTATIC_BASE

@@ -12,8 +12,9 @@ weak-form surface term (σ̄n)(S·n), S = Σ_b V_b (ψ_b e_b − φ_b) with the 
 the sources' fits: the surface force that the negative adjoint of the sources' gradient operators
 (an energy-conserving divergence) gives a uniform stress, kept to its normal-traction part so that
 large stresses along a surface do not amplify particle-disorder noise; at a drained free surface of
-saturated soil σ̄ is the total stress extrapolated to the surface (zero under a geostatic layer,
-where the point's own stress one row in is not; docs/method.md). In the full step that force
+saturated soil σ̄ is the total stress extrapolated to the surface, at an impermeable one the point's
+own traction carried to the surface by the weight of the soil between (both zero under a geostatic
+layer, where the point's own stress one row in is not; docs/method.md). In the full step that force
 is divided by the particle's share s_a = Σ_i V_i ψ_i(a) of the virtual points' fits (about 0.6 on a
 flat face, 1 inside; floored at ``SURFACE_SHARE_FLOOR``; not with large deformation): the adjoint's
 force acts on the part of the body the particle's shape function covers, the fit's divergence per
@@ -100,19 +101,32 @@ def taylor_kernels(spec: Spec):
         return value
 
     @wp.func
-    def stress_on_drained_surface(
+    def skeleton_body_force(gravity: vec3, rho: real, water_density: wp.array(dtype=wp.float64), mat: int):
+        """Body force per unit mass [m/s²] in the momentum balance of a point of density ρ [kg/m³]: g, or
+        under pore water the buoyant g(1 − ρ_w/ρ) (the excess pore pressure's balance: ∇p_h = ρ_w g)."""
+        if wp.static(pore_water):
+            return gravity * (one - real(water_density[mat]) / rho)
+        return gravity
+
+    @wp.func
+    def depth_below_surface(
         x: vec3, start: int, end: int, nbr: wp.array(dtype=wp.int32), xs: wp.array(dtype=vec3), n: vec3,
-        beyond_sources: real, At: mat33, s: mat33, d0: mat33, d1: mat33, d2: mat33, p: real, dp: vec3,
+        beyond_sources: real,
     ):  # fmt: skip
-        """The total stress σ′ − pI on a drained free surface: extrapolated from x along its outward
-        normal n by the fitted gradients to the surface, which lies ``beyond_sources`` [m] past the
-        outermost source along n (the depth clamped at zero). The gradients d_k = ∂σ′/∂x_k and
-        dp = ∇p are at tⁿ; σ′'s are mapped by At = F⁻¹ onto the configuration n lives on, the pore
-        pressure's stays at tⁿ."""
+        """Distance [m] from x along its outward normal n to a free surface lying ``beyond_sources`` [m]
+        past the outermost source, clamped at zero."""
         reach = real(-1.0e30)
         for k in range(start, end):
             reach = wp.max(reach, wp.dot(xs[nbr[k]] - x, n))
-        depth = wp.max(reach + beyond_sources, zero)
+        return wp.max(reach + beyond_sources, zero)
+
+    @wp.func
+    def stress_on_drained_surface(
+        depth: real, n: vec3, At: mat33, s: mat33, d0: mat33, d1: mat33, d2: mat33, p: real, dp: vec3,
+    ):  # fmt: skip
+        """The total stress σ′ − pI on a drained free surface ``depth`` [m] out along the outward normal
+        n, extrapolated by the fitted gradients d_k = ∂σ′/∂x_k and dp = ∇p at tⁿ; σ′'s are mapped by
+        At = F⁻¹ onto the configuration n lives on, the pore pressure's stays at tⁿ."""
         An = At * n  # n·∇ on that configuration, as weights of the ∂/∂x_k at tⁿ
         slope = An[0] * d0 + An[1] * d1 + An[2] * d2
         return s + depth * slope - (p + depth * wp.dot(dp, n)) * wp.identity(3, dtype=real)
@@ -124,7 +138,7 @@ def taylor_kernels(spec: Spec):
         sigmas: wp.array(dtype=mat33), h: real, c: vec3, inv_den: real, Minv: mat33, e: vec3,
         src_c: wp.array(dtype=vec3), src_inv_den: wp.array(dtype=real), src_minv: wp.array(dtype=mat33),
         src_e: wp.array(dtype=vec3), in_surface_band: bool, ps: wp.array(dtype=wp.float64), mid: real,
-        water_on_surface: real, per_share: bool, beyond_sources: real,
+        water_on_surface: real, per_share: bool, beyond_sources: real, unit_weight: vec3,
     ):  # fmt: skip
         """Velocity, effective stress, velocity gradient G[k,j] = ∂v_j/∂x_k, divergence of the total
         stress σ′ − pI and pore pressure fitted at x from the sources; in the surface band the
@@ -133,7 +147,11 @@ def taylor_kernels(spec: Spec):
         already takes from its Dirichlet rows), divided by the point's share of the sources' fits
         when ``per_share`` (the full step, whose real particles carry the mass). At a drained free
         surface the term takes the total stress extrapolated to the surface, ``beyond_sources`` [m]
-        past the outermost source (``stress_on_drained_surface``), not the point's own. The sources'
+        past the outermost source (``stress_on_drained_surface``), not the point's own; at an
+        impermeable one the point's own traction carried to the surface by the weight of the soil
+        between, (σ′ − pI)n − δ ``unit_weight`` (δ the depth, unit_weight = ρ b [N/m³] with the
+        point's buoyant body force: ∂(σn)/∂n = −ρb at rest). Dry surfaces keep the point's own
+        traction (docs/method.md, *Known limits*). The sources'
         positions are those at tⁿ; the gradients of v and σ′ (G, the divergence, the surface normal
         and weights) are taken on the configuration x + mid·v [s] where those fields live, through
         F⁻ᵀ = (I + mid G)⁻¹ (mid = 0: at tⁿ); the pore pressure's stays at tⁿ (the full step's is the
@@ -185,14 +203,17 @@ def taylor_kernels(spec: Spec):
         normal_dir = A * e
         if in_surface_band and wp.length(normal_dir) > zero:
             n = -wp.normalize(normal_dir)
+            traction = total * n
             if wp.static(pore_water):
+                depth = depth_below_surface(x, start, end, nbr, xs, n, beyond_sources)
                 if water_on_surface == zero:
-                    total = stress_on_drained_surface(x, start, end, nbr, xs, n, beyond_sources, At, s, ds0, ds1,
-                                                      ds2, real(p), grad_p)  # fmt: skip
-            weight = one
+                    traction = stress_on_drained_surface(depth, n, At, s, ds0, ds1, ds2, real(p), grad_p) * n
+                else:
+                    traction -= depth * unit_weight
+            scale = one
             if per_share:
-                weight = one / wp.max(share, share_floor)
-            div += (weight * wp.dot(A * surface_sum, n)) * (total * n)
+                scale = one / wp.max(share, share_floor)
+            div += (scale * wp.dot(A * surface_sum, n)) * traction
         return v, s, G, div, p
 
     @wp.kernel(enable_backward=False, module="unique", name=f"half_step{variant}" if plasticity else None)
@@ -241,19 +262,18 @@ def taylor_kernels(spec: Spec):
         ``virtual_continuity`` advances them after the full step."""
         i = first + wp.tid()
         x = virt_q[i]
+        mat = virt_material[i]
+        rho = virt_density[i]
+        body_force = skeleton_body_force(gravity, rho, water_density, mat)
         v, s, G, div, p = fit_fields(x, offsets[i], offsets[i + 1], nbr, real_q, real_mass, real_density, real_v,
                                      real_stress, h, virt_fit_c[i], virt_fit_inv_den[i], virt_fit_minv[i],
                                      virt_fit_e[i], real_fit_c, real_fit_inv_den, real_fit_minv, real_fit_e,
                                      virt_fit_lambda[i] < surface_threshold, real_p, zero,
-                                     water_on_surface, False, zero)  # fmt: skip
+                                     water_on_surface, False, zero, rho * body_force)  # fmt: skip
         d, spin = split_velocity_gradient(G)
-        mat = virt_material[i]
-        rho = virt_density[i]
         hdt = half * dt
-        body_force = gravity
         if wp.static(pore_water):
             virt_p[i] = p  # pⁿ at the virtual point, for the full step's lagged pressure force
-            body_force = gravity * (one - real(water_density[mat]) / rho)  # buoyant: ∇p_h = ρ_w b
         v_half = v + hdt * (div / rho + body_force)
         opening = zero
         if wp.static(plasticity):
@@ -328,12 +348,15 @@ def taylor_kernels(spec: Spec):
         of it inside a free surface whose real particles lie on it."""
         a = first + wp.tid()
         x = q[a]
+        mat = material[a]
+        rho = density[a]
+        body_force = skeleton_body_force(gravity, rho, water_density, mat)
         v_half, s_half, G, div, p = fit_fields(x, offsets[a], offsets[a + 1], nbr, virt_q, virt_mass, virt_density,
                                             virt_v_half, virt_stress_half, h, real_fit_c[a], real_fit_inv_den[a],
                                             real_fit_minv[a], real_fit_e[a], virt_fit_c, virt_fit_inv_den,
                                             virt_fit_minv, virt_fit_e, real_fit_lambda[a] < surface_threshold,
                                             virt_p, half * dt, water_on_surface, surface_per_share != 0,
-                                            half * spacing)  # fmt: skip
+                                            half * spacing, rho * body_force)  # fmt: skip
         # gradients on the midpoint configuration (Hughes–Winget): on the configuration at tⁿ a rigid
         # rotation's v^{n+½} has the divergence −Δt ω² (a spinning disc's rim drifted outward by
         # π ωΔt R per turn), and the force of its stress at t^{n+½}, turned by ωΔt/2 since tⁿ, missed
@@ -348,8 +371,6 @@ def taylor_kernels(spec: Spec):
             div = vec3(zero, zero, zero)
             v_half = v[a]
         d, spin = split_velocity_gradient(G)
-        mat = material[a]
-        rho = density[a]
         s = stress[a]
         opening = zero
         if wp.static(plasticity):
@@ -361,9 +382,6 @@ def taylor_kernels(spec: Spec):
             plastic_strain_out[a] = plastic_strain[a] + d_eps
         else:
             s_new = s + dt * hooke_rate(d, lam[mat], shear[mat]) + source_increment(s, spin, dt)
-        body_force = gravity
-        if wp.static(pore_water):
-            body_force = gravity * (one - real(water_density[mat]) / rho)
         if free:
             v_half = v[a] + half * dt * body_force
         visc = vec3(zero, zero, zero)
