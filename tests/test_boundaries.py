@@ -35,7 +35,8 @@ def test_prescribed_velocity_region_sends_the_impedance_stress():
     """A region 0.6 m thick (more than the support 2h) in the middle of a 20 m column, driven
     downward: a compression front runs down from its lower face (and a tension front up); the
     lower part is compared. Thinner pistons excite odd-even modes at their faces (docs/method.md)."""
-    scene = column_1d(boundaries=[Boundary("base", "fixed", "y", 0.0, "min"), Boundary("top", "free", "y", 20.0, "max")],
+    scene = column_1d(boundaries=[Boundary("base", "fixed", "y", 0.0, "min"),
+                                  Boundary("top", "free", "y", 20.0, "max")],
                       loads=[Load("piston", "velocity", region=Region((-1, 9.95, -1), (1, 10.55, 1)),
                                   velocity=(0, V0, 0))])  # fmt: skip
     scene.bodies[0].max = (0, 20, 0)
@@ -88,5 +89,6 @@ def test_base_reaction_balances_a_slowly_applied_load():
         state, scratch = scratch, state
         values.append(probes.sample(host_fields(model, state))["reaction"])
     mean = np.mean(values[-n_hold:])
-    print(f"\nbase reaction {mean:.1f} N/m for an applied {p * width:.1f} N/m ({100 * (mean / (p * width) - 1):+.2f} %)")
+    print(f"\nbase reaction {mean:.1f} N/m for an applied {p * width:.1f} N/m "
+          f"({100 * (mean / (p * width) - 1):+.2f} %)")
     assert mean == pytest.approx(p * width, rel=0.02)

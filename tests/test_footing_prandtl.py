@@ -13,7 +13,6 @@ study sets it (warpsph.study.metrics.footing_scene: B/2 = last footing particle 
 import math
 from pathlib import Path
 
-import numpy as np
 import pytest
 
 from warpsph.io import load_results
@@ -49,7 +48,8 @@ def plateaus(tmp_path_factory):
             results = load_results(out / "results.h5")
             _, pressure = results.series(FOOTING_PRESSURE)
             _, settlement = results.series(FOOTING_SETTLEMENT)
-            found[dx], spread, _ = footing_plateau(settlement, pressure, FOOTING_WINDOW)  # the 0.025 m run stops at 28.6 mm
+            # the 0.025 m run stops at 28.6 mm
+            found[dx], spread, _ = footing_plateau(settlement, pressure, FOOTING_WINDOW)
             print(f"\ndx = {scene.simulation.dx} m: footing plateau {found[dx] / 1e3:.2f} ± {spread / 1e3:.2f} kPa = "
                   f"{found[dx] / COHESION:.3f} c_u ({100 * (found[dx] / PRANDTL - 1):+.1f} % against (2 + pi) c_u)")
         return found[dx]

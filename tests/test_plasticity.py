@@ -156,7 +156,8 @@ def evaluate(spec: Spec, yield_name: str, m, sigma: np.ndarray, eps=0.0) -> dict
     }
     s = wp.array(np.asarray(sigma), dtype=spec.mat33, device=DEVICE)
     names = ("inv", "f", "df", "g", "dg", "d_vp", "eps_rate")  # the kernel's output order
-    wp.launch(_kernels(spec, yield_name)["evaluate"], dim=n, inputs=[s, eps, m, *(out[k] for k in names)], device=DEVICE)
+    wp.launch(_kernels(spec, yield_name)["evaluate"], dim=n, inputs=[s, eps, m, *(out[k] for k in names)],
+              device=DEVICE)
     return {k: v.numpy().astype(np.float64) for k, v in out.items()}
 
 

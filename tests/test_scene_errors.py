@@ -245,7 +245,8 @@ BAD_CASES = {
     "unknown virtual_points": (edit("end_time = 0.5", 'end_time = 0.5\nvirtual_points = "remeshed"'),
                                "simulation.virtual_points"),
     "unknown particle_velocity": (edit("end_time = 0.5", 'end_time = 0.5\nlarge_deformation = true\n'
-                                                          'particle_velocity = "mean"'), "simulation.particle_velocity"),
+                                                          'particle_velocity = "mean"'),
+                                  "simulation.particle_velocity"),
     "negative particle_shifting": (edit("end_time = 0.5", "end_time = 0.5\nlarge_deformation = true\n"
                                                            "particle_shifting = -1"), "simulation.particle_shifting"),
     "velocity_filter above 0.5": (edit("end_time = 0.5", "end_time = 0.5\nvelocity_filter = 0.6"),

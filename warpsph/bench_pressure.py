@@ -175,7 +175,8 @@ def parse_args(argv: list[str] | None) -> argparse.Namespace:
 
 
 def settings_line(args, machine: dict) -> str:
-    return (f"{machine['device_name']} ({machine['cpu']}, {machine['cpu_count']} CPUs), warp {machine['warp_version']}, "
+    return (f"{machine['device_name']} ({machine['cpu']}, {machine['cpu_count']} CPUs), "
+            f"warp {machine['warp_version']}, "
             f"2D, {args.precision}, tolerance {args.tolerance:g}, k_h = {args.hydraulic_conductivity:g} m/s, "
             f"K_w = {args.water_bulk_modulus:g} Pa, {args.steps} steps per case")  # fmt: skip
 

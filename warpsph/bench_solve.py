@@ -2,10 +2,10 @@
 
 The saturated step of ``warpsph.bench``'s block with the solve on the device-resident
 one-thread-per-row kernels (``projection.linear.blocked = False``: the GPU path) or on the blocked,
-row-threaded kernels (the CPU default), on 1 and 2 CPU threads. Every trial runs ``--steps`` steps from the same state; the configurations cycle
-``--cycles`` times (after one warm-up cycle), so that a change of load on a shared machine hits
-all of them. ``--solve-only`` times one assembled solve instead of whole steps (docs/performance.md,
-"Pressure solve on CPU threads").
+row-threaded kernels (the CPU default), on 1 and 2 CPU threads. Every trial runs ``--steps`` steps
+from the same state; the configurations cycle ``--cycles`` times (after one warm-up cycle), so that
+a change of load on a shared machine hits all of them. ``--solve-only`` times one assembled solve
+instead of whole steps (docs/performance.md, "Pressure solve on CPU threads").
 """
 
 from __future__ import annotations

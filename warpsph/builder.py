@@ -201,7 +201,7 @@ def build(scene: Scene, device: str | None = None, precision: str | None = None)
     all_pts = np.concatenate([real_pts, g_pos, virt_pts, vg_pos])
     extent = all_pts.max(axis=0) - all_pts.min(axis=0)
 
-    real, vec3, mat33 = spec.real, spec.vec3, spec.mat33
+    real, vec3 = spec.real, spec.vec3
     npr = np.float64 if spec.precision == "float64" else np.float32
 
     def arr(values, dtype, shape_if_empty=None):

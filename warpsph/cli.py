@@ -23,7 +23,8 @@ def _parser() -> argparse.ArgumentParser:
     sub = p.add_subparsers(dest="command", required=True)
     run = sub.add_parser("run", help="run a scene", formatter_class=argparse.ArgumentDefaultsHelpFormatter)
     run.add_argument("scene", type=Path, help="scene file (TOML, see docs/scenes.md)")
-    run.add_argument("--device", default=default_device(), help="Warp device: cpu or cuda:0 ($WARPSPH_DEVICE sets the default)")
+    run.add_argument("--device", default=default_device(),
+                     help="Warp device: cpu or cuda:0 ($WARPSPH_DEVICE sets the default)")
     run.add_argument("--out", type=Path, default=None, help="run directory (default: runs/SCENE_NAME)")
     run.add_argument("--end-time", type=float, default=None, help="stop at this simulated time [s] "
                      "instead of the scene's simulation.end_time")  # fmt: skip

@@ -184,7 +184,8 @@ class Solver:
                 si.particle_stress, si.particle_density, m.particle_material, m.material_lambda, m.material_shear,
                 m.material_wave_speed, so.particle_q, so.particle_v, so.particle_stress, so.particle_density,
                 self.virtual_p, self._water_density, si.particle_plastic_strain, m.material_plasticity,
-                so.particle_plastic_strain, int(self.shifting), real(m.scene.simulation.particle_shifting), self.real_shift,
+                so.particle_plastic_strain, int(self.shifting), real(m.scene.simulation.particle_shifting),
+                self.real_shift,
                 own, real(m.scene.simulation.stress_filter), real(m.scene.simulation.velocity_filter),
                 int(not m.scene.simulation.large_deformation), real(m.scene.simulation.dx)],
                m.device)  # fmt: skip

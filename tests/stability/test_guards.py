@@ -48,7 +48,8 @@ def first_bad_step(scene, limit: float, steps: int) -> int | None:
                   state.particle_density.numpy()[:n]]
         densities = [fields[3]]
         if state.virtual_q is not None:
-            fields += [state.virtual_q.numpy()[: model.virtual_count], state.virtual_density.numpy()[: model.virtual_count]]
+            count = model.virtual_count
+            fields += [state.virtual_q.numpy()[:count], state.virtual_density.numpy()[:count]]
             densities.append(fields[5])
         bad = (not all(np.all(np.isfinite(f)) for f in fields) or any(np.any(d <= 0.0) for d in densities)
                or np.linalg.norm(fields[1], axis=1).max() > limit)  # fmt: skip

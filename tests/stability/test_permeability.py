@@ -122,8 +122,9 @@ def test_layers_against_the_closed_form(layered):
 def test_layers_against_the_closed_form_at_half_the_courant_number(tmp_path):
     """What the contrast costs: at Δx = 0.1 m and Courant 0.25 (4× the steps, 13 600) with the interior
     roughness weight 0.02, which damps an odd-even ripple the interface sends into the clay (without
-    it the clay reaches 1.0115 p₀ and 0.984 p₀), the criteria above are met: the pressure within [0, 1.01 p₀], the clay within
-    2 % of p₀, the sand within 1 % (L2) and the jump within 2 % p₀ of the closed form."""
+    it the clay reaches 1.0115 p₀ and 0.984 p₀), the criteria above are met: the pressure within
+    [0, 1.01 p₀], the clay within 2 % of p₀, the sand within 1 % (L2) and the jump within 2 % p₀ of
+    the closed form."""
     results, record, y, p, _ = run_layers(tmp_path, dx=0.1, courant=0.25, interior_stabilisation=0.02)
     l2, clay, jump, exact_jump = against_the_closed_form(results, y, p)
     assert record["pressure_solve"]["missed_tolerance"] == 0

@@ -64,7 +64,8 @@ def loaded_strip_block(hydraulic_conductivity: float, interior_stabilisation: fl
     for old, new in [("max = [10.0, 5.0]", "max = [3.0, 2.0]"), ("position = 10.0", "position = 3.0"),
                      ("position = 5.0", "position = 2.0"), ("max = [1.125, 6.0]", "max = [1.125, 3.0]"),
                      ("min = [-1.125, 4.0]", "min = [-1.125, 1.0]"),
-                     ("extent = { min = [1.125, 4.0], max = [11.0, 6.0] }", "extent = { min = [1.125, 1.0], max = [4.0, 3.0] }"),
+                     ("extent = { min = [1.125, 4.0], max = [11.0, 6.0] }",
+                      "extent = { min = [1.125, 1.0], max = [4.0, 3.0] }"),
                      ("water_table = 5.0", "water_table = 2.0"),
                      ("hydraulic_conductivity = 1e-3", f"hydraulic_conductivity = {hydraulic_conductivity}"),
                      ("[pressure]", f"[pressure]\ninterior_stabilisation = {interior_stabilisation}")]:  # fmt: skip
@@ -95,7 +96,7 @@ def test_loaded_strip_at_low_permeability_stays_bounded():
     steps = int(1.5 / dt)
     march(scene, steps, excess_peak, every=steps // 6)
     times = sorted(peaks)
-    print(f"\nloaded strip, k_h = 1e-5 m/s, default damping: largest |excess| "
+    print("\nloaded strip, k_h = 1e-5 m/s, default damping: largest |excess| "
           + ", ".join(f"{peaks[t] / 1e3:.0f}" for t in times) + f" kPa at {times} s")
     assert max(peaks.values()) < 1.2 * q
     assert peaks[times[-1]] <= peaks[times[-3]] * 1.01

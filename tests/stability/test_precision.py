@@ -5,7 +5,8 @@ densities) and the kernels run in float32 while the pore pressure, the pressure 
 solve stay in float64 (warpsph/model.py, stages/pressure.py): float32 is not refused with pore water.
 Set A (``test_terzaghi.set_a_column``) to T_v = 0.1: the L2 difference between the float32 and float64
 pressures must stay below the discretisation error (the float64 L2 error against the closed form),
-the issue's criterion; measured about a fifth of it at Δx = 0.2 m. Δx = 0.2 m in the default run, Δx = 0.1 m (the shipped scene's) slow.
+the issue's criterion; measured about a fifth of it at Δx = 0.2 m. Δx = 0.2 m in the default run,
+Δx = 0.1 m (the shipped scene's) slow.
 """
 
 import numpy as np

@@ -35,7 +35,8 @@ def column(hydraulic_conductivity: float, free_surface: str, stabilisation: floa
     return Scene(simulation=Simulation(dim=1, dx=0.1), effects=Effects(pore_water=True), materials={"soil": soil},
                  bodies=[Body("column", "soil", min=(0, 0, 0), max=(0, 1.0, 0))],
                  boundaries=[Boundary("base", "fixed", "y", 0.0, "min")],
-                 pressure=PressureSolver(free_surface=free_surface, stabilisation=stabilisation)).validate()  # fmt: skip
+                 pressure=PressureSolver(free_surface=free_surface,
+                                         stabilisation=stabilisation)).validate()  # fmt: skip
 
 
 def spectral_radius(hydraulic_conductivity: float, free_surface: str, stabilisation: float = 1.0) -> float:

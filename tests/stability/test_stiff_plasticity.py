@@ -41,7 +41,7 @@ import math
 
 import numpy as np
 import pytest
-from stability_tools import SCENES, march
+from stability_tools import march
 from test_shear_band import (CENTRE, COHESION, DENSITY, END, LONG_END, RESIDUAL, SHEAR, SOFTENING, SPEED, STIFF,
                              band_at, layer_run, shear_layer)  # fmt: skip
 

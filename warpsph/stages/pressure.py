@@ -186,8 +186,9 @@ class PressureProjection:
         the parity of a pressure increment in the velocity correction, see ``ghost_affine``)."""
         m, pw = self.model, self.model.pore
         if virtual:
-            n, src, chain, mat, count, origin = (m.virtual_count, m.virtual_ghost_source, m.virtual_ghost_planes,
-                                                 m.virtual_material, m.virtual_ghost_count, m.virtual_origin)  # fmt: skip
+            n, src, chain, mat, count, origin = (
+                m.virtual_count, m.virtual_ghost_source, m.virtual_ghost_planes, m.virtual_material,
+                m.virtual_ghost_count, m.virtual_origin)  # fmt: skip
         else:
             n, src, chain, mat, count, origin = (m.particle_count, m.particle_ghost_source, m.particle_ghost_planes,
                                                  m.particle_material, m.particle_ghost_count,
@@ -195,7 +196,8 @@ class PressureProjection:
         args = self._plane_args()
         launch(self.k["pressure_ghosts"], count,
                [n, src, chain, q, origin, mat, args[0], args[1], args[2], *args[3:], pw.material_water_density,
-                pw.material_permeability, m.spec.vec3(*pw.gravity), wp.float64(pw.water_table), int(homogeneous), int(momentum), p],
+                pw.material_permeability, m.spec.vec3(*pw.gravity), wp.float64(pw.water_table), int(homogeneous),
+                int(momentum), p],
                m.device)  # fmt: skip
 
     # -- the projection ---------------------------------------------------------------------------
@@ -239,9 +241,10 @@ class PressureProjection:
             self._warn_unstable_free_surface(si, dt)
         args = self._plane_args()
         # the arguments of the pressure fits (``fitted_pressure``) ahead of each kernel's own
-        fit_args = [h, n, nl.offsets, nl.indices, si.particle_q, m.particle_origin, m.particle_mass, si.particle_density,
-                    m.particle_material, pw.material_permeability, pw.material_water_density, gravity,
-                    m.particle_ghost_source, m.particle_ghost_planes, *args, wp.float64(pw.water_table)]  # fmt: skip
+        fit_args = [h, n, nl.offsets, nl.indices, si.particle_q, m.particle_origin, m.particle_mass,
+                    si.particle_density, m.particle_material, pw.material_permeability, pw.material_water_density,
+                    gravity, m.particle_ghost_source, m.particle_ghost_planes, *args,
+                    wp.float64(pw.water_table)]  # fmt: skip
         if self.settings.stabilisation > 0.0 or self.settings.interior_stabilisation > 0.0:
             launch_rows(self.k["mark_near_surface"], n,
                         [n, nl.offsets, nl.indices, m.particle_ghost_source, rf.smallest_eigenvalue,
@@ -258,7 +261,8 @@ class PressureProjection:
                 m.particle_ghost_source, m.particle_ghost_planes, *args, wp.float64(pw.water_table), self.dirichlet,
                 self.value, self.face_factor, self.momentum_image, rf.smallest_eigenvalue,
                 real(self.exterior_threshold), wp.float64(self.lattice_sum), self.roughness, self.near_surface,
-                wp.float64(self.settings.stabilisation), wp.float64(self.settings.interior_stabilisation), self.weight, self.column, self.diag, self.rhs], dev)  # fmt: skip
+                wp.float64(self.settings.stabilisation), wp.float64(self.settings.interior_stabilisation),
+                self.weight, self.column, self.diag, self.rhs], dev)  # fmt: skip
         iterations, rel = self.linear.solve(self._matrix(), self.rhs, x)
         self.iterations.append(iterations)
         self.residuals.append(rel)
@@ -271,8 +275,8 @@ class PressureProjection:
             if self.failures == 1:
                 warnings.warn(message + " (further misses are counted in run.json)", stacklevel=2)
         if self.has_sealed_faces:
-            launch_rows(self.k["extrapolate_to_sealed_faces"], n, [*fit_args, self.sealed_face, 0, self.dirichlet, x, self.dp],
-                        dev)
+            launch_rows(self.k["extrapolate_to_sealed_faces"], n,
+                        [*fit_args, self.sealed_face, 0, self.dirichlet, x, self.dp], dev)
             wp.copy(x, self.dp, count=n)
         # v = v* − (Δt/ρ) ∇(p − pⁿ), along the same path
         self.update_ghosts(si.particle_q, x, homogeneous=False)

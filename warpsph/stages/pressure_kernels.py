@@ -431,9 +431,10 @@ def pressure_kernels(spec: Spec):
 
     @wp.kernel(enable_backward=False, module="unique")
     def assemble(
-        first: int, h: real, dt: real, scale: f64, n: int, offsets: wp.array(dtype=wp.int32), nbr: wp.array(dtype=wp.int32),
-        q: wp.array(dtype=vec3), origin: wp.array(dtype=vec3), mass: wp.array(dtype=real),
-        density: wp.array(dtype=real), material: wp.array(dtype=wp.int32), permeability: wp.array(dtype=f64), inv_biot: wp.array(dtype=f64),
+        first: int, h: real, dt: real, scale: f64, n: int, offsets: wp.array(dtype=wp.int32),
+        nbr: wp.array(dtype=wp.int32), q: wp.array(dtype=vec3), origin: wp.array(dtype=vec3),
+        mass: wp.array(dtype=real), density: wp.array(dtype=real), material: wp.array(dtype=wp.int32),
+        permeability: wp.array(dtype=f64), inv_biot: wp.array(dtype=f64),
         water_density: wp.array(dtype=f64), gravity: vec3, v_star: wp.array(dtype=vec3),
         div_v_star: wp.array(dtype=f64), p_old: wp.array(dtype=f64), ghost_source: wp.array(dtype=wp.int32),
         ghost_chain: wp.array(dtype=wp.vec3i), plane_axis: wp.array(dtype=wp.int32),
@@ -535,8 +536,8 @@ def pressure_kernels(spec: Spec):
     return dict(
         pressure_ghosts=pressure_ghosts, fit_vector_at_virtual=fit_vector_at_virtual,
         fit_scalar_at_virtual=fit_scalar_at_virtual, divergence_at_real=divergence_at_real,
-        gradient_at_real=gradient_at_real, correct_velocity=correct_velocity, darcy=darcy, mark_dirichlet=mark_dirichlet,
-        mark_near_surface=mark_near_surface, roughness=roughness,
+        gradient_at_real=gradient_at_real, correct_velocity=correct_velocity, darcy=darcy,
+        mark_dirichlet=mark_dirichlet, mark_near_surface=mark_near_surface, roughness=roughness,
         extrapolate_to_sealed_faces=extrapolate_to_sealed_faces, assemble=assemble,
         difference=difference,
     )  # fmt: skip

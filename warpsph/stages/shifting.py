@@ -15,9 +15,9 @@ rest, and never farther than their neighbours moved relative to them in the step
 collapse: with the largest rate of the neighbours instead of the own, and without the bound, a
 spurious rate at one point shifted a particle at 2 m/s, eight times its speed). In the free-surface
 band (smallest correction eigenvalue below the threshold) the part along the surface normal is
-removed, so the surface does not move. The real particles' fields are carried to the shifted place by their fitted gradients (v + (δx·∇)v,
-σ′ + (δx·∇)σ′, in the full step); virtual points carry only their position and density (their Φ is
-fitted afresh every step), so they just move.
+removed, so the surface does not move. The real particles' fields are carried to the shifted place
+by their fitted gradients (v + (δx·∇)v, σ′ + (δx·∇)σ′, in the full step); virtual points carry only
+their position and density (their Φ is fitted afresh every step), so they just move.
 """
 
 import functools

@@ -1,9 +1,10 @@
 """Running the cases of studies through dask.distributed, one JSON record per finished run.
 
 Each run is :func:`run_case`, a function of (scene text, overrides, metric, device) alone, so the
-runs go to any Dask cluster unchanged: a ``LocalCluster`` of one worker process per core by
-default (each run's row launches on cores ÷ workers threads), or the scheduler at an address. Records are written by the client, atomically,
-to ``<study out>/runs/<case id>.json``; a study started again skips the cases that have one.
+runs go to any Dask cluster unchanged: a ``LocalCluster`` of one worker process per core by default
+(each run's row launches on cores ÷ workers threads), or the scheduler at an address. Records are
+written by the client, atomically, to ``<study out>/runs/<case id>.json``; a study started again
+skips the cases that have one.
 """
 
 from __future__ import annotations

@@ -275,8 +275,9 @@ def _measure_footing(scene: Scene, device: str) -> Measurement:
     window = FOOTING_WINDOW
     plateau, spread, count = footing_plateau(settlement, pressure, window)
     if count == 0:
-        raise SimulationError(f"the footing settled {max(settlement, default=0.0) * 1e3:.3g} mm by the end, never "
-                              f"reaching the plateau window {window[0] * 1e3:.3g}-{window[1] * 1e3:.3g} mm")  # fmt: skip
+        raise SimulationError(f"the footing settled {max(settlement, default=0.0) * 1e3:.3g} mm by the end, "
+                              f"never reaching the plateau window "
+                              f"{window[0] * 1e3:.3g}-{window[1] * 1e3:.3g} mm")  # fmt: skip
     ratio = plateau / limit
     return Measurement(run, {"limit_load_error": abs(ratio - 1.0)},
                        {"plateau_over_cu": plateau / soil.cohesion, "signed_error": ratio - 1.0,

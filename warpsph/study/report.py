@@ -135,8 +135,8 @@ def _write_markdown(outcome: StudyOutcome, masks: dict, path):
         row = [_show(r["settings"][k]) for k in axes]
         if r["status"] == "finished":
             row += [f"{r['errors'][e]:.3g}" for e in errors] + [f"{r['extras'].get(x, math.nan):.3g}" for x in extras]
-            row += [str(r["particles"]), str(r["steps"]), f"{r['wall_seconds']:.3g}", f"{r.get('cpu_seconds', math.nan):.3g}",
-                    f"{r['compile_seconds']:.2f}"]  # fmt: skip
+            row += [str(r["particles"]), str(r["steps"]), f"{r['wall_seconds']:.3g}",
+                    f"{r.get('cpu_seconds', math.nan):.3g}", f"{r['compile_seconds']:.2f}"]  # fmt: skip
             if solve:
                 s = r.get("pressure_solve", {})
                 row += [f"{s.get('iterations_mean', math.nan):.3g}", str(s.get("missed_tolerance", ""))]
