@@ -146,7 +146,7 @@ class Solver:
                 m.material_lambda, m.material_shear, self.virtual_v, self.virtual_stress, so.virtual_q,
                 so.virtual_density, si.particle_pore_pressure, self._water_density, self.virtual_p,
                 si.particle_plastic_strain, m.material_plasticity, self.virtual_rate,
-                real(0.0 if self.real_motion is not None else 1.0)], m.device)  # fmt: skip
+                real(0.0 if self.real_motion is not None else 1.0), self._surface_weight], m.device)  # fmt: skip
 
     def _shifting(self, si: State, so: State, t: float, dt: float) -> None:
         """Shifts of both sets from the configuration at tⁿ: the virtual points' are applied to their
@@ -187,7 +187,7 @@ class Solver:
                 so.particle_plastic_strain, int(self.shifting), real(m.scene.simulation.particle_shifting),
                 self.real_shift,
                 own, real(m.scene.simulation.stress_filter), real(m.scene.simulation.velocity_filter),
-                int(not m.scene.simulation.large_deformation), real(m.scene.simulation.dx)],
+                int(not m.scene.simulation.large_deformation), real(m.scene.simulation.dx), self._surface_weight],
                m.device)  # fmt: skip
 
     def _virtual_continuity(self, si: State, so: State, t: float, dt: float) -> None:
@@ -207,6 +207,12 @@ class Solver:
                [real(m.h), real(dt), nl.offsets, nl.indices, si.particle_q, m.particle_mass, si.particle_density,
                 self.real_motion, si.virtual_q, *self.virtual_fits.arrays()[:4], so.virtual_density],
                m.device)  # fmt: skip
+
+    @property
+    def _surface_weight(self):
+        """1 to take the weight of the soil above a surface band's point off its traction; 0 with large
+        deformation, whose flows it destabilised (docs/method.md, *The weight of the soil*)."""
+        return self.model.spec.real(0.0 if self.model.scene.simulation.large_deformation else 1.0)
 
     @property
     def _water_on_surface(self):

@@ -12,9 +12,10 @@ weak-form surface term (σ̄n)(S·n), S = Σ_b V_b (ψ_b e_b − φ_b) with the 
 the sources' fits: the surface force that the negative adjoint of the sources' gradient operators
 (an energy-conserving divergence) gives a uniform stress, kept to its normal-traction part so that
 large stresses along a surface do not amplify particle-disorder noise; at a drained free surface of
-saturated soil σ̄ is the total stress extrapolated to the surface, at an impermeable one the point's
-own traction carried to the surface by the weight of the soil between (both zero under a geostatic
-layer, where the point's own stress one row in is not; docs/method.md). In the full step that force
+saturated soil σ̄ is the total stress extrapolated to the surface, at a dry or impermeable one the
+point's own traction less the weight of the soil between it and the surface (without large
+deformation; both zero under a geostatic layer, where the point's own stress one row in is not;
+docs/method.md). In the full step that force
 is divided by the particle's share s_a = Σ_i V_i ψ_i(a) of the virtual points' fits (about 0.6 on a
 flat face, 1 inside; floored at ``SURFACE_SHARE_FLOOR``; not with large deformation): the adjoint's
 force acts on the part of the body the particle's shape function covers, the fit's divergence per
@@ -109,6 +110,19 @@ def taylor_kernels(spec: Spec):
         return gravity
 
     @wp.func
+    def weight_above(depth: real, n: vec3, unit_weight: vec3):
+        """What the weight of the soil between a point ``depth`` [m] below a free surface of outward
+        normal n and the surface adds to the point's traction σn at rest [Pa]: depth (ŵ·n)² w, with
+        w = ``unit_weight`` = ρb [N/m³]. Exact where only the stress on horizontal planes varies with
+        depth, σ_yy = −γ(H − y): a layer's geostatic state, and a cut's with K₀ = 0 at its face (zero)
+        and its crest corner; a slender beam carries its weight in shear instead (docs/method.md)."""
+        w2 = wp.dot(unit_weight, unit_weight)
+        if w2 == zero:
+            return vec3(zero, zero, zero)
+        along = wp.dot(unit_weight, n)
+        return (depth * along * along / w2) * unit_weight
+
+    @wp.func
     def depth_below_surface(
         x: vec3, start: int, end: int, nbr: wp.array(dtype=wp.int32), xs: wp.array(dtype=vec3), n: vec3,
         beyond_sources: real,
@@ -147,11 +161,10 @@ def taylor_kernels(spec: Spec):
         already takes from its Dirichlet rows), divided by the point's share of the sources' fits
         when ``per_share`` (the full step, whose real particles carry the mass). At a drained free
         surface the term takes the total stress extrapolated to the surface, ``beyond_sources`` [m]
-        past the outermost source (``stress_on_drained_surface``), not the point's own; at an
-        impermeable one the point's own traction carried to the surface by the weight of the soil
-        between, (σ′ − pI)n − δ ``unit_weight`` (δ the depth, unit_weight = ρ b [N/m³] with the
-        point's buoyant body force: ∂(σn)/∂n = −ρb at rest). Dry surfaces keep the point's own
-        traction (docs/method.md, *Known limits*). The sources'
+        past the outermost source (``stress_on_drained_surface``), not the point's own; at a dry or
+        impermeable one the point's own traction less the weight of the soil between it and the
+        surface (``weight_above``; unit_weight = ρb [N/m³] with the point's body force, buoyant under
+        pore water, zero with large deformation). The sources'
         positions are those at tⁿ; the gradients of v and σ′ (G, the divergence, the surface normal
         and weights) are taken on the configuration x + mid·v [s] where those fields live, through
         F⁻ᵀ = (I + mid G)⁻¹ (mid = 0: at tⁿ); the pore pressure's stays at tⁿ (the full step's is the
@@ -203,13 +216,11 @@ def taylor_kernels(spec: Spec):
         normal_dir = A * e
         if in_surface_band and wp.length(normal_dir) > zero:
             n = -wp.normalize(normal_dir)
-            traction = total * n
+            depth = depth_below_surface(x, start, end, nbr, xs, n, beyond_sources)
+            traction = total * n - weight_above(depth, n, unit_weight)
             if wp.static(pore_water):
-                depth = depth_below_surface(x, start, end, nbr, xs, n, beyond_sources)
                 if water_on_surface == zero:
                     traction = stress_on_drained_surface(depth, n, At, s, ds0, ds1, ds2, real(p), grad_p) * n
-                else:
-                    traction -= depth * unit_weight
             scale = one
             if per_share:
                 scale = one / wp.max(share, share_floor)
@@ -257,9 +268,11 @@ def taylor_kernels(spec: Spec):
         plastic_material: wp.array(dtype=PlasticMaterial),
         virt_rate: wp.array(dtype=real),
         continuity: real,
+        surface_weight: real,
     ):
         """``continuity``: 1 to advance the virtual densities by the divergence fitted here, 0 when
-        ``virtual_continuity`` advances them after the full step."""
+        ``virtual_continuity`` advances them after the full step; ``surface_weight``: 1 to take the
+        weight of the soil above a surface band's point off its traction, 0 not to (large deformation)."""
         i = first + wp.tid()
         x = virt_q[i]
         mat = virt_material[i]
@@ -269,7 +282,7 @@ def taylor_kernels(spec: Spec):
                                      real_stress, h, virt_fit_c[i], virt_fit_inv_den[i], virt_fit_minv[i],
                                      virt_fit_e[i], real_fit_c, real_fit_inv_den, real_fit_minv, real_fit_e,
                                      virt_fit_lambda[i] < surface_threshold, real_p, zero,
-                                     water_on_surface, False, zero, rho * body_force)  # fmt: skip
+                                     water_on_surface, False, zero, surface_weight * rho * body_force)  # fmt: skip
         d, spin = split_velocity_gradient(G)
         hdt = half * dt
         if wp.static(pore_water):
@@ -342,10 +355,11 @@ def taylor_kernels(spec: Spec):
         velocity_filter: real,
         surface_per_share: int,
         spacing: real,
+        surface_weight: real,
     ):
         """``surface_per_share``: 1 to divide the surface term by the particle's share (off with large
         deformation, docs/method.md); ``spacing``: the lattice spacing Δx [m], the virtual points lying half
-        of it inside a free surface whose real particles lie on it."""
+        of it inside a free surface whose real particles lie on it; ``surface_weight`` as in the half step."""
         a = first + wp.tid()
         x = q[a]
         mat = material[a]
@@ -356,7 +370,7 @@ def taylor_kernels(spec: Spec):
                                             real_fit_minv[a], real_fit_e[a], virt_fit_c, virt_fit_inv_den,
                                             virt_fit_minv, virt_fit_e, real_fit_lambda[a] < surface_threshold,
                                             virt_p, half * dt, water_on_surface, surface_per_share != 0,
-                                            half * spacing, rho * body_force)  # fmt: skip
+                                            half * spacing, surface_weight * rho * body_force)  # fmt: skip
         # gradients on the midpoint configuration (Hughes–Winget): on the configuration at tⁿ a rigid
         # rotation's v^{n+½} has the divergence −Δt ω² (a spinning disc's rim drifted outward by
         # π ωΔt R per turn), and the force of its stress at t^{n+½}, turned by ωΔt/2 since tⁿ, missed
