@@ -217,10 +217,14 @@ def taylor_kernels(spec: Spec):
         if in_surface_band and wp.length(normal_dir) > zero:
             n = -wp.normalize(normal_dir)
             depth = depth_below_surface(x, start, end, nbr, xs, n, beyond_sources)
-            traction = total * n - weight_above(depth, n, unit_weight)
+            drained = False
             if wp.static(pore_water):
-                if water_on_surface == zero:
-                    traction = stress_on_drained_surface(depth, n, At, s, ds0, ds1, ds2, real(p), grad_p) * n
+                drained = water_on_surface == zero
+            traction = total * n
+            if drained:
+                traction = stress_on_drained_surface(depth, n, At, s, ds0, ds1, ds2, real(p), grad_p) * n
+            else:
+                traction -= weight_above(depth, n, unit_weight)
             scale = one
             if per_share:
                 scale = one / wp.max(share, share_floor)
