@@ -10,13 +10,28 @@ import pytest
 
 from warpsph.builder import build
 from warpsph.lattice import used_axes
-from warpsph.scene import Material
+from warpsph.scene import Body, Material, Scene, Simulation
 from warpsph.solver import Solver
 
 SCHEMES = ("two_set", "collocated")
 SCENES = Path(__file__).resolve().parents[2] / "scenes"
 SOLID = Material("solid", density=2000.0, youngs_modulus=10e6, poisson_ratio=0.3)
 """The elastic solid of the stretched bars, the spinning disc and the free plate."""
+DISC_RADIUS, DISC_DX, RIM_SPEED = 1.0, 0.1, 0.1
+"""The spinning disc: radius R [m], lattice spacing [m] and rim speed ωR / c."""
+DISC_OMEGA = RIM_SPEED * SOLID.p_wave_speed / DISC_RADIUS
+"""The spinning disc's angular velocity ω [rad/s]."""
+CONSISTENT = (("virtual_density", "real_motion"), ("velocity_filter", 0.02))
+"""The virtual points' densities following the reals' motion, and the velocity filter (docs/method.md):
+with both the disc keeps its energy without artificial viscosity and its steady spin does not grow."""
+
+
+def spinning_disc(**options) -> Scene:
+    """The free plane-strain disc of ``SOLID`` in rigid rotation at ``DISC_OMEGA``, unstressed, with the
+    Simulation settings ``options``."""
+    return Scene(simulation=Simulation(dim=2, dx=DISC_DX, **options), materials={"solid": SOLID},
+                 bodies=[Body("disc", "solid", shape="circle", radius=DISC_RADIUS, angular_velocity=DISC_OMEGA)],
+                 ).validate()
 
 
 def expected_failure(reason: str):

@@ -1,4 +1,5 @@
-"""Tensile instability and large rotation (issue 6, items 1 and 4), two-set scheme and collocated baseline.
+"""Tensile instability (issue 6, item 1), two-set scheme and collocated baseline; item 4, large rotation, is
+:mod:`test_large_rotation`.
 
 **Bar stretched at constant rate** (plane strain, L = 2 m, b = 0.4 m, Δx = 0.05 m, E = 10 MPa,
 ν = 0.3, ρ = 2000 kg/m³): velocity planes at x = ±L/2 move apart at ±v₀, and the bar starts in the
@@ -29,7 +30,10 @@ import functools
 
 import numpy as np
 import pytest
-from stability_tools import SOLID, closest_pair, energy, expected_failure, largest_rise, march, scheme_params
+from stability_tools import (
+    CONSISTENT, DISC_DX, DISC_OMEGA, DISC_RADIUS, SOLID, closest_pair, energy, expected_failure, largest_rise, march,
+    scheme_params, spinning_disc,
+)
 
 from warpsph.scene import Body, Boundary, Scene, Simulation
 from warpsph.sph.kernels import kernel_value
@@ -132,19 +136,12 @@ def test_free_bar_stretched_by_one_percent(scheme):
     check_bar(stretch(scheme, "free", 0.01), f"{scheme}, free-sided bar to 1 % stretch")
 
 
-RIM_SPEED = 0.1
-"""ωR / c of the spinning disc."""
-
-
 @functools.cache
 def spin(scheme: str, alpha: float, turns: float = 2.0, **options):
     """The spinning disc for ``turns`` (``options``: more Simulation settings): per quarter turn (turns,
     mean rim radius / R − 1, energy, closest pair / Δx)."""
-    radius, dx = 1.0, 0.1
-    omega = RIM_SPEED * SOLID.p_wave_speed / radius
-    scene = Scene(simulation=Simulation(dim=2, dx=dx, scheme=scheme, artificial_viscosity=alpha, **options),
-                  materials={"solid": SOLID},
-                  bodies=[Body("disc", "solid", shape="circle", radius=radius, angular_velocity=omega)]).validate()
+    radius, dx, omega = DISC_RADIUS, DISC_DX, DISC_OMEGA
+    scene = spinning_disc(scheme=scheme, artificial_viscosity=alpha, **options)
     period = 2 * np.pi / omega
     rows = []
 
@@ -159,11 +156,6 @@ def spin(scheme: str, alpha: float, turns: float = 2.0, **options):
     steps = int(np.ceil(turns * period / scene.time_step))
     march(scene, steps, observe, every=int(round(steps / (4 * turns))))
     return np.array(rows)
-
-
-CONSISTENT = (("virtual_density", "real_motion"), ("velocity_filter", 0.02))
-"""The virtual points' densities following the reals' motion, and the velocity filter (docs/method.md):
-with both the disc keeps its energy without artificial viscosity."""
 
 
 @pytest.mark.parametrize("scheme, alpha, options", [
@@ -196,92 +188,6 @@ def test_spinning_disc_keeps_its_radius(scheme, alpha, options):
     assert np.max(np.abs(rows[:, 1])) < 0.005
 
 
-SETTLE_TURNS = 1.0
-"""Turns of :func:`spin_invariants`' settling before the disc runs free."""
-
-
-def damp_towards_rigid_rotation(model, state, factor: float) -> None:
-    """Scale every particle's velocity off the rigid rotation of the body's own angular momentum (2D,
-    ω = L/I about the centre of mass) by ``factor``: that motion has no momentum and no angular
-    momentum, so both are kept."""
-    n = model.particle_count
-    mass = model.particle_mass.numpy()[:n].astype(np.float64)
-    everything = state.particle_v.numpy()
-    v = everything[:n].astype(np.float64)
-    r = state.particle_q.numpy()[:n].astype(np.float64)
-    r -= mass @ r / mass.sum()
-    drift = mass @ v / mass.sum()
-    omega = np.sum(mass * (r[:, 0] * v[:, 1] - r[:, 1] * v[:, 0])) / np.sum(mass * (r[:, 0] ** 2 + r[:, 1] ** 2))
-    rigid = drift + omega * np.stack([-r[:, 1], r[:, 0], np.zeros(n)], axis=1)
-    everything[:n] = rigid + factor * (v - rigid)
-    state.particle_v.assign(everything)
-
-
-def spin_invariants(turns: float, virtual_density: str):
-    """The two-set disc at α = 0.3 brought to its steady spin, then free for ``turns``: per quarter turn
-    of the free run (turns, strain energy, disc means of tr σ and √J₂, each weighted by particle volume).
-    For the first turn (``SETTLE_TURNS``) every step damps the motion off the rigid rotation of the
-    disc's own angular momentum at the rate c/R, which takes out the breathing about the centrifugal
-    state that the start in rigid rotation without stress sets off (an elastic disc's own vibration,
-    which the continuum keeps for ever)."""
-    radius, dx = 1.0, 0.1
-    omega = RIM_SPEED * SOLID.p_wave_speed / radius
-    scene = Scene(simulation=Simulation(dim=2, dx=dx, artificial_viscosity=0.3, virtual_density=virtual_density),
-                  materials={"solid": SOLID},
-                  bodies=[Body("disc", "solid", shape="circle", radius=radius, angular_velocity=omega)]).validate()
-    period, dt = 2 * np.pi / omega, scene.time_step
-    settle = int(np.ceil(SETTLE_TURNS * period / dt))
-    every = int(round(period / (4 * dt)))
-    factor = float(np.exp(-SOLID.p_wave_speed / radius * dt))
-    rows = []
-
-    def observe(k, model, state):
-        if k <= settle:
-            if k > 0:
-                damp_towards_rigid_rotation(model, state, factor)
-            if k < settle:
-                return True
-        if (k - settle) % every:
-            return True
-        n = model.particle_count
-        volume = model.particle_mass.numpy()[:n] / state.particle_density.numpy()[:n]
-        s = state.particle_stress.numpy()[:n].astype(np.float64)
-        v = state.particle_v.numpy()[:n].astype(np.float64)
-        trace = np.trace(s, axis1=1, axis2=2)
-        dev = s - trace[:, None, None] / 3.0 * np.eye(3)
-        root_j2 = np.sqrt(0.5 * np.einsum("nij,nij->n", dev, dev))
-        kinetic = 0.5 * np.sum(model.particle_mass.numpy()[:n] * np.sum(v * v, axis=1))
-        rows.append(((k - settle) * dt / period, energy(model, state) - kinetic,
-                     np.average(trace, weights=volume), np.average(root_j2, weights=volume)))
-        return not blown_up(np.linalg.norm(v, axis=1).max() / (omega * radius))
-
-    march(scene, settle + int(np.ceil(turns * period / dt)), observe)
-    return np.array(rows)
-
-
-@pytest.mark.parametrize("virtual_density", [
-    pytest.param("integrated", marks=expected_failure(
-        "the virtual points' densities drift at the rim and the disc blows up 6.25 turns after its settling "
-        "(measured, docs/stability.md)")),
-    pytest.param("real_motion", marks=expected_failure(
-        "runs the 10 turns, but the rim's particle-scale stress noise, held still while settling, grows in the "
-        "first half turn free (√J₂ +16 % at r > 0.85 R), and a torque of the fits turns the disc down by "
-        "2.8e-3 in 3 turns: the strain energy changes by 6.3e-2, the mean tr σ by 1.8e-2 and the mean √J₂ by "
-        "9.7e-2 (measured, docs/stability.md)")),
-])
-def test_spinning_disc_keeps_its_stress_invariants_for_ten_turns(virtual_density):
-    """Issue item 4: a disc spinning for 10 turns, its stress invariants within 1e-3 relative and no
-    spurious strain energy. The disc is first brought to its steady spin (:func:`spin_invariants`);
-    over the 10 free turns that follow, the strain energy and the disc means of tr σ and √J₂ stay within
-    1e-3 of their values at the start of the free run."""
-    rows = spin_invariants(10.0, virtual_density)
-    assert rows[-1, 0] > 9.9, f"blew up after {rows[-1, 0]:.2f} turns"
-    change = np.abs(rows[:, 1:] / rows[0, 1:] - 1.0).max(axis=0)
-    print(f"\ntwo-set disc, α = 0.3, {virtual_density}, steady spin, 10 free turns: largest relative change of "
-          f"the strain energy {change[0]:.2e}, of mean tr σ {change[1]:.2e}, of mean √J₂ {change[2]:.2e}")
-    assert np.all(change <= 1e-3)
-
-
 def density_around(model, state) -> np.ndarray:
     """Each virtual point's density over the density of the real particles around it (their volumes'
     Shepard mean at the point: ρ_i / (m_i Σ_a W_ia / Σ_a V_a W_ia))."""
@@ -303,12 +209,8 @@ def density_around(model, state) -> np.ndarray:
 def test_spinning_disc_virtual_points_keep_the_density_around_them(virtual_density):
     """The virtual points' volumes weight every fit at the real particles; in a disc turning without
     deforming they must keep the density of the real particles around them (within 1 %, α = 0.3)."""
-    radius, dx = 1.0, 0.1
-    omega = RIM_SPEED * SOLID.p_wave_speed / radius
-    scene = Scene(simulation=Simulation(dim=2, dx=dx, artificial_viscosity=0.3, virtual_density=virtual_density),
-                  materials={"solid": SOLID},
-                  bodies=[Body("disc", "solid", shape="circle", radius=radius, angular_velocity=omega)]).validate()
-    model, state, _ = march(scene, int(np.ceil(2 * 2 * np.pi / omega / scene.time_step)))
+    scene = spinning_disc(artificial_viscosity=0.3, virtual_density=virtual_density)
+    model, state, _ = march(scene, int(np.ceil(2 * 2 * np.pi / DISC_OMEGA / scene.time_step)))
     ratio = density_around(model, state)
     print(f"\ntwo-set disc, α = 0.3, virtual_density = {virtual_density!r}, 2 turns: virtual density / the "
           f"reals' around it in [{ratio.min():.4f}, {ratio.max():.4f}]")
