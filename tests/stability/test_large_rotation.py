@@ -18,8 +18,10 @@ rigid rotation's ω × x − (Δt/2) ω² x, within 1e-5 ω²R Δt. An objective
 keeps that state for ever; a stress rate that is not objective, a spurious torque or a growing mode
 moves it (without the Jaumann terms no steady spin is found, and the invariants move by 0.15 in a turn).
 
-**Criterion:** over 10 free turns the strain energy and the disc means of tr σ and √J₂ (volume
-weighted) stay within 1e-3 of their values at the start; the slow test asks the same over 30 turns.
+**Criteria:** over 10 free turns the strain energy and the disc means of tr σ and √J₂ (volume
+weighted) stay within 1e-3 of their values at the start; particle by particle, every particle's tr σ and
+√J₂ stay within 1e-3 of the largest of each at the start, and the stresses inside R/2 as near the closed
+form as at the start; the slow test asks for the means over 30 turns.
 
 Measured (docs/stability.md, *Spinning disc*): inside R/2 the default steady state's stresses lie within
 5.4 % of the closed form's largest stress component (rms 1.1 % inside 0.3 R, 2.7 % between 0.3 and 0.5 R)
@@ -31,7 +33,7 @@ import functools
 
 import numpy as np
 import pytest
-from stability_tools import CONSISTENT, SOLID, energy, expected_failure, spinning_disc
+from stability_tools import CONSISTENT, DISC_DX, SOLID, closest_pair, energy, expected_failure, spinning_disc
 from stability_tools import DISC_OMEGA as OMEGA
 from stability_tools import DISC_RADIUS as RADIUS
 
@@ -148,9 +150,10 @@ def settled(options: tuple = ()):
     return scene, *steady_spin(scene)
 
 
-def free_turns(options: tuple, turns: float) -> np.ndarray:
+def free_turns(options: tuple, turns: float):
     """Run the disc of :func:`settled` free from its steady spin for ``turns`` (the steady state itself is
-    kept); per quarter turn, (turns, invariants relative to the start − 1)."""
+    kept); return per quarter turn (turns, invariants relative to the start − 1), and the model and state
+    at the end."""
     scene, model, steady, solver, _, mismatch = settled(options)
     assert mismatch < STEADY_TOLERANCE, f"no steady spin found: one-step mismatch {mismatch:.1e}"
     dt = scene.time_step
@@ -168,7 +171,17 @@ def free_turns(options: tuple, turns: float) -> np.ndarray:
             rows.append(((k + 1) * dt / period, *(now / start - 1.0)))
             if not np.all(np.isfinite(now)):
                 break
-    return np.array(rows)
+    return np.array(rows), model, state
+
+
+def closed_form_deviation(model, state) -> float:
+    """Largest deviation of the real particles' stresses inside R/2 from the closed form at their
+    positions, over the closed form's largest stress component."""
+    n = model.particle_count
+    x = state.particle_q.numpy()[:n].astype(np.float64)
+    inside = np.linalg.norm(x[:, :2], axis=1) < 0.5 * RADIUS
+    closed_form = centrifugal_stress(x)
+    return float(np.abs(state.particle_stress.numpy()[:n] - closed_form)[inside].max() / np.abs(closed_form).max())
 
 
 def test_steady_spin_is_the_centrifugal_state():
@@ -177,11 +190,8 @@ def test_steady_spin_is_the_centrifugal_state():
     of the closed form's largest stress component, its densities within 1 %."""
     _, model, state, _, u, mismatch = settled()
     n = model.particle_count
-    x = state.particle_q.numpy()[:n]
-    inside = np.linalg.norm(x[:, :2], axis=1) < 0.5 * RADIUS
-    closed_form = centrifugal_stress(x)
-    peak = np.abs(closed_form).max()
-    stress_error = np.abs(state.particle_stress.numpy()[:n] - closed_form)[inside].max() / peak
+    inside = np.linalg.norm(state.particle_q.numpy()[:n, :2], axis=1) < 0.5 * RADIUS
+    stress_error = closed_form_deviation(model, state)
     density = u[3 * n:4 * n]
     print(f"\nsteady spin: mismatch {mismatch:.1e}; inside R/2 stress within {stress_error:.3f} of the peak, "
           f"density [{density[inside].min():+.4f}, {density[inside].max():+.4f}]; everywhere density "
@@ -192,17 +202,57 @@ def test_steady_spin_is_the_centrifugal_state():
     assert np.abs(density[inside]).max() < 0.01
 
 
+def particle_invariants(model, state) -> np.ndarray:
+    """(N, 2) tr σ and √J₂ [Pa] of every real particle."""
+    s = state.particle_stress.numpy()[:model.particle_count].astype(np.float64)
+    trace = np.trace(s, axis1=1, axis2=2)
+    dev = s - trace[:, None, None] / 3.0 * np.eye(3)
+    return np.stack([trace, np.sqrt(0.5 * np.einsum("nij,nij->n", dev, dev))], axis=1)
+
+
+@functools.cache
+def ten_free_turns(options: tuple):
+    """:func:`free_turns` for ``TURNS``: (rows; the stresses' deviation from the closed form inside R/2 at the
+    start and at the end; the largest change of each particle's tr σ and √J₂ over the largest of each at
+    the start; the closest pair of particles at the end over Δx)."""
+    rows, model, state = free_turns(options, TURNS)
+    steady = settled(options)[2]
+    before, after = particle_invariants(model, steady), particle_invariants(model, state)
+    change = np.abs(after - before).max(axis=0) / np.abs(before).max(axis=0)
+    pair = closest_pair(state.particle_q.numpy()[:model.particle_count]) / DISC_DX
+    return rows, closed_form_deviation(model, steady), closed_form_deviation(model, state), change, pair
+
+
 @pytest.mark.parametrize("options", [(), CONSISTENT], ids=["default", "consistent"])
 def test_spinning_disc_keeps_its_stress_invariants_for_ten_turns(options):
     """Issue item 4: from its discrete steady spin the disc turns 10 times freely; its strain energy and
-    mean tr σ and √J₂ stay within 1e-3 of their start (no spurious strain energy)."""
-    rows = free_turns(options, TURNS)
+    mean tr σ and √J₂ stay within 1e-3 of their start (no spurious strain energy), and no pair of particles
+    closes in (closest pair above half the spacing)."""
+    rows, _, _, _, pair = ten_free_turns(options)
     change = np.abs(rows[:, 1:]).max(axis=0)
     print(f"\ndisc {dict(options) or 'default'}, {rows[-1, 0]:.2f} free turns from the steady spin: largest "
           f"relative change of the strain energy {change[0]:.1e}, of mean tr σ {change[1]:.1e}, of mean √J₂ "
-          f"{change[2]:.1e}")
-    assert rows[-1, 0] > TURNS - 0.01
+          f"{change[2]:.1e}; closest pair {pair:.4f} Δx")
+    assert rows[-1, 0] > TURNS - 0.05
     assert np.all(change <= 1e-3)
+    assert pair > 0.5
+
+
+@pytest.mark.parametrize("options", [pytest.param((), marks=expected_failure(
+    "the disc means hold, but the m = 2 mode growing out of the steady spin changes single particles' √J₂ by "
+    "4.1e-2 and tr σ by 1.1e-2 of their peak, and moves the stresses inside R/2 from 5.4 % to 10.0 % of the "
+    "closed form's peak off it (measured, docs/stability.md)")), CONSISTENT], ids=["default", "consistent"])
+def test_spinning_disc_keeps_every_particles_stress_for_ten_turns(options):
+    """Items 4 and 1 particle by particle, on the same run (about 630 transits of R at the P-wave speed):
+    every particle's tr σ and √J₂ stay within 1e-3 of the largest of each at the start, and inside R/2 the
+    stresses stay within 6 % of the closed form's largest stress component, as at the start (5.4 %)."""
+    rows, start, end, change, _ = ten_free_turns(options)
+    print(f"\ndisc {dict(options) or 'default'}, {rows[-1, 0]:.2f} free turns: largest change of a particle's "
+          f"tr σ {change[0]:.1e}, of its √J₂ {change[1]:.1e}; inside R/2 the stress within {end:.4f} of the "
+          f"closed form's peak ({start:.4f} at the start)")
+    assert rows[-1, 0] > TURNS - 0.05
+    assert np.all(change <= 1e-3)
+    assert end < 0.06
 
 
 LONG_TURNS = 30.0
@@ -217,13 +267,15 @@ LONG_TURNS = 30.0
         "docs/stability.md)")),
     pytest.param(CONSISTENT, marks=expected_failure(
         "the same mode, slower: 1.2e-4 at 20 turns, 2.1e-4 at 24, 3.6e-2 at 28 (measured, docs/stability.md)")),
-], ids=["default", "consistent"])
+    (("velocity_filter", 0.05), ("virtual_density", "real_motion")),
+], ids=["default", "consistent", "consistent-0.05"])
 def test_spinning_disc_keeps_its_stress_invariants_for_thirty_turns(options):
-    """As the 10-turn test, for 30 turns: the steady spin must not merely outlast the issue's 10 turns."""
-    rows = free_turns(options, LONG_TURNS)
+    """As the 10-turn test, for 30 turns: the steady spin must not merely outlast the issue's 10 turns. The
+    mode that grows out of it is held by the velocity filter at β = 0.05 (``consistent-0.05``), not at 0.02."""
+    rows, _, _ = free_turns(options, LONG_TURNS)
     change = np.abs(rows[:, 1:]).max(axis=1)
     beyond = rows[change > 1e-3, 0]
     print(f"\ndisc {dict(options) or 'default'}, {LONG_TURNS:.0f} free turns: largest change "
           f"{change.max():.1e}, first beyond 1e-3 after {beyond[0] if beyond.size else np.inf:.2f} turns")
-    assert rows[-1, 0] > LONG_TURNS - 0.01
+    assert rows[-1, 0] > LONG_TURNS - 0.05
     assert np.all(change <= 1e-3)
