@@ -128,18 +128,22 @@ def steady_spin(scene: Scene, iterations: int = 8, regularisation: float = 1e-7)
     return model, state, solver, u, np.abs(r).max()
 
 
+def particle_invariants(model, state) -> np.ndarray:
+    """(N, 2) tr σ and √J₂ [Pa] of every real particle."""
+    s = state.particle_stress.numpy()[:model.particle_count].astype(np.float64)
+    trace = np.trace(s, axis1=1, axis2=2)
+    dev = s - trace[:, None, None] / 3.0 * np.eye(3)
+    return np.stack([trace, np.sqrt(0.5 * np.einsum("nij,nij->n", dev, dev))], axis=1)
+
+
 def invariants(model, state) -> np.ndarray:
     """Strain energy [J/m] and the disc means (volume weighted) of tr σ and √J₂ [Pa]."""
     n = model.particle_count
     volume = model.particle_mass.numpy()[:n] / state.particle_density.numpy()[:n]
-    s = state.particle_stress.numpy()[:n].astype(np.float64)
     v = state.particle_v.numpy()[:n].astype(np.float64)
-    trace = np.trace(s, axis1=1, axis2=2)
-    dev = s - trace[:, None, None] / 3.0 * np.eye(3)
-    root_j2 = np.sqrt(0.5 * np.einsum("nij,nij->n", dev, dev))
     kinetic = 0.5 * np.sum(model.particle_mass.numpy()[:n] * np.sum(v * v, axis=1))
-    return np.array([energy(model, state) - kinetic, np.average(trace, weights=volume),
-                     np.average(root_j2, weights=volume)])
+    means = np.average(particle_invariants(model, state), axis=0, weights=volume)
+    return np.array([energy(model, state) - kinetic, *means])
 
 
 @functools.cache
@@ -200,14 +204,6 @@ def test_steady_spin_is_the_centrifugal_state():
     assert mismatch < STEADY_TOLERANCE
     assert stress_error < 0.06
     assert np.abs(density[inside]).max() < 0.01
-
-
-def particle_invariants(model, state) -> np.ndarray:
-    """(N, 2) tr σ and √J₂ [Pa] of every real particle."""
-    s = state.particle_stress.numpy()[:model.particle_count].astype(np.float64)
-    trace = np.trace(s, axis1=1, axis2=2)
-    dev = s - trace[:, None, None] / 3.0 * np.eye(3)
-    return np.stack([trace, np.sqrt(0.5 * np.einsum("nij,nij->n", dev, dev))], axis=1)
 
 
 @functools.cache
