@@ -23,7 +23,8 @@ DISC_OMEGA = RIM_SPEED * SOLID.p_wave_speed / DISC_RADIUS
 """The spinning disc's angular velocity ω [rad/s]."""
 CONSISTENT = (("virtual_density", "real_motion"), ("velocity_filter", 0.02))
 """The virtual points' densities following the reals' motion, and the velocity filter (docs/method.md):
-with both the disc keeps its energy without artificial viscosity and its steady spin does not grow."""
+with both the disc keeps its energy without artificial viscosity, and its steady spin holds for 24 turns
+(docs/stability.md)."""
 
 
 def spinning_disc(**options) -> Scene:

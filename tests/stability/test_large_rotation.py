@@ -147,7 +147,7 @@ def invariants(model, state) -> np.ndarray:
 
 
 @functools.cache
-def settled(options: tuple = ()):
+def settled(options: tuple):
     """(scene, model, steady state, solver, unknowns, mismatch) of the disc with the Simulation settings
     ``options`` ((name, value) pairs), by :func:`steady_spin`."""
     scene = spinning_disc(**dict(options))
@@ -192,7 +192,7 @@ def test_steady_spin_is_the_centrifugal_state():
     """The discrete steady spin is found (every mismatch below ``STEADY_TOLERANCE``) and is the closed
     form's centrifugal state away from the lattice's staircase rim: inside R/2 its stresses lie within 6 %
     of the closed form's largest stress component, its densities within 1 %."""
-    _, model, state, _, u, mismatch = settled()
+    _, model, state, _, u, mismatch = settled(())
     n = model.particle_count
     inside = np.linalg.norm(state.particle_q.numpy()[:n, :2], axis=1) < 0.5 * RADIUS
     stress_error = closed_form_deviation(model, state)
