@@ -57,3 +57,20 @@ def test_plastic_scene_launches_the_plastic_variant(scenes_dir):
     assert {"half_step_plastic_von_mises", "full_step_plastic_von_mises"} <= launched
     assert not [k for k in launched if any(word in k.lower() for word in ("pressure", "projection", "pore"))]
     assert np.isfinite(scratch.particle_plastic_strain.numpy()).all()
+
+
+def test_only_an_equilibrium_phase_compiles_local_damping(scenes_dir):
+    """The effects rule per phase: the damping stage and its kernel exist in an equilibrium phase's
+    solver only."""
+    scene = load_scene(scenes_dir / "wave_column.toml")
+    model, state = build(scene)
+    assert "local_damping" not in Solver(model).stage_names
+    damped = Solver(model, damping=0.8)
+    assert damped.stage_names[-1] == "local_damping"
+    scratch = model.state()
+    with record_launches() as launched:
+        damped.step(state, scratch, 0.0, scene.time_step)
+    assert any("local_damping" in k for k in launched)
+    with record_launches() as launched:
+        Solver(model).step(state, scratch, 0.0, scene.time_step)
+    assert not any("damping" in k for k in launched)

@@ -343,7 +343,7 @@ def test_messages_say_what_is_accepted():
         parse_scene(plastic.replace('"mohr_coulomb"', '"cam_clay"'))
     with pytest.raises(SceneError, match=r"^materials\.soil\.fluidity: must be > 0, got 0\.0$"):
         parse_scene(plastic.replace("poisson_ratio = 0.3", "poisson_ratio = 0.3\nfluidity = 0"))
-    with pytest.raises(SceneError, match=r"unknown section; accepted: .*output, pressure, probes"):
+    with pytest.raises(SceneError, match=r"unknown section; accepted: .*output, phases, pressure, probes"):
         parse_scene(BASE + "\n[solver]\ntolerance = 1\n")
     with pytest.raises(SceneError, match=r"empty body: no lattice point of spacing dx = 0.1 lies inside it"):
         parse_scene(BASE.replace("max = [0.5, 2.0]", "max = [0.05, 2.0]").replace("min = [0, 0]", "min = [0.01, 0]"))

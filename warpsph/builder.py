@@ -14,6 +14,7 @@ import numpy as np
 import warp as wp
 
 from warpsph.fields import voigt_to_tensor
+from warpsph.initial_stress import geostatic_stress
 from warpsph.lattice import fill_body, fill_cells
 from warpsph.environment import default_device
 from warpsph.model import PLANE_FIXED, PLANE_SLIP, PLANE_TRACTION, PLANE_VELOCITY, Model, State
@@ -43,18 +44,17 @@ def _planes(scene: Scene):
     return planes
 
 
-def _merge_unique(point_sets: list[np.ndarray], dx: float) -> tuple[np.ndarray, np.ndarray]:
+def merge_unique(point_sets: list[np.ndarray], dx: float) -> tuple[np.ndarray, np.ndarray]:
     """Concatenate point sets, dropping points that an earlier set already has; also the set index."""
-    seen: set = set()
-    points, owner = [], []
-    for i, pts in enumerate(point_sets):
-        for p in pts:
-            key = tuple(np.round(p / dx * 2.0).astype(np.int64))
-            if key not in seen:
-                seen.add(key)
-                points.append(p)
-                owner.append(i)
-    return np.asarray(points, dtype=float).reshape(-1, 3), np.asarray(owner, dtype=np.int32)
+    sets = [np.asarray(pts, dtype=float).reshape(-1, 3) for pts in point_sets]
+    points = np.concatenate(sets) if sets else np.zeros((0, 3))
+    owner = np.repeat(np.arange(len(sets), dtype=np.int32), [len(pts) for pts in sets])
+    if not len(points):
+        return points, owner
+    keys = np.round(points / dx * 2.0).astype(np.int64)
+    _, first = np.unique(keys, axis=0, return_index=True)
+    keep = np.sort(first)
+    return points[keep], owner[keep]
 
 
 def _with_room(ghosts, points: np.ndarray, plane_count: int, large_deformation: bool):
@@ -92,19 +92,16 @@ def _initial_velocity(body, points: np.ndarray) -> np.ndarray:
     return v
 
 
-def _geostatic(material, points: np.ndarray, gravity, pore_water: bool) -> np.ndarray:
-    """Geostatic effective stress (…,3,3) [Pa] below the top of ``points``: σ′_yy = −(ρ − ρ_w) g depth
-    (ρ_w only with pore water, buoyant weight), σ′_xx = σ′_zz = K0 σ′_yy."""
-    weight = material.density - (material.water_density if pore_water else 0.0)
-    vertical = -weight * (-gravity[1]) * (points[:, 1].max() - points[:, 1])
-    k0 = material.earth_pressure_at_rest
-    out = np.zeros((len(points), 3, 3))
-    out[:, 0, 0] = out[:, 2, 2] = k0 * vertical
-    out[:, 1, 1] = vertical
-    return out
+def _geostatic(material, points: np.ndarray, gravity, dx: float, pore_water: bool) -> np.ndarray:
+    """Geostatic effective stress (…,3,3) [Pa] of one body's ``points``: σ′_yy = −(ρ − ρ_w) g depth below
+    the body's highest particle in each one's column (ρ_w only with pore water: the buoyant weight),
+    σ′_xx = σ′_zz = K0 σ′_yy."""
+    weight = (material.density - (material.water_density if pore_water else 0.0)) * (-gravity[1])
+    n = len(points)
+    return geostatic_stress(points, np.full(n, weight), np.full(n, material.earth_pressure_at_rest), dx)
 
 
-def _plastic_materials(spec: Spec, materials, device: str) -> wp.array:
+def plastic_materials(spec: Spec, materials, device: str) -> wp.array:
     """One viscoplastic material struct per material [SI units]; von Mises takes σ_Y = √3 c (c = c_u)
     and scales H and the residual alike. Elastic materials get fluidity 0: they never relax."""
     structs = []
@@ -153,7 +150,7 @@ def build(scene: Scene, device: str | None = None, precision: str | None = None)
     mats = [scene.materials[m] for m in mat_names]
     body_mat = [mat_names.index(b.material) for b in scene.bodies]
 
-    real_pts, real_body = _merge_unique([fill_body(b, dx, dim) for b in scene.bodies], dx)
+    real_pts, real_body = merge_unique([fill_body(b, dx, dim) for b in scene.bodies], dx)
     n = len(real_pts)
     density0 = np.array([mats[body_mat[b]].density for b in real_body])
     velocity0 = np.zeros((n, 3))
@@ -165,7 +162,7 @@ def build(scene: Scene, device: str | None = None, precision: str | None = None)
         velocity0[sel] = _initial_velocity(body, real_pts[sel])
         stress0[sel] = voigt_to_tensor(body.stress)
         if body.geostatic and np.any(sel):
-            stress0[sel] += _geostatic(mats[body_mat[i]], real_pts[sel], sim.gravity, pore)
+            stress0[sel] += _geostatic(mats[body_mat[i]], real_pts[sel], sim.gravity, dx, pore)
         pore0[sel] = body.pore_pressure
 
     planes = _planes(scene)
@@ -175,7 +172,7 @@ def build(scene: Scene, device: str | None = None, precision: str | None = None)
 
     two_set = spec.scheme == "two_set"
     if two_set:
-        virt_pts, virt_body = _merge_unique([fill_cells(b, dx, dim) for b in scene.bodies], dx)
+        virt_pts, virt_body = merge_unique([fill_cells(b, dx, dim) for b in scene.bodies], dx)
     else:
         virt_pts, virt_body = np.zeros((0, 3)), np.zeros(0, dtype=np.int32)
     vg_plan = plan_ghosts(virt_pts, mirrors, band, tol)
@@ -263,7 +260,7 @@ def build(scene: Scene, device: str | None = None, precision: str | None = None)
         region_load=arr(region_load, wp.int32),
         region_virtual=arr(region_virtual, wp.int32),
         region_virtual_load=arr(region_virtual_load, wp.int32),
-        material_plasticity=_plastic_materials(spec, mats, device) if spec.effects.plasticity else None,
+        material_plasticity=plastic_materials(spec, mats, device) if spec.effects.plasticity else None,
         particle_ids=np.arange(n, dtype=np.int64),
         pore=(build_pore_water(scene, [p[8] for p in planes], float(real_pts[:, 1].max()), vec3, grow, device)
               if pore else None),

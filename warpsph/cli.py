@@ -1,7 +1,8 @@
 """Command line: ``warpsph run SCENE``, ``warpsph validate SCENE`` and ``warpsph study STUDY``.
 
 Exit codes: 0 success, 1 the run went unstable (its output up to then is kept), 2 a bad scene or
-bad arguments (one line on stderr, never a traceback).
+bad arguments (one line on stderr, never a traceback), 3 an equilibrium phase did not converge
+within its step cap (its output is kept; the phases after it were not run).
 """
 
 from __future__ import annotations
@@ -14,7 +15,7 @@ from warpsph.environment import default_device
 from warpsph.errors import InputError, SceneError, SimulationError, one_line
 from warpsph.study import command as study_command
 
-EXIT_UNSTABLE, EXIT_BAD_INPUT = 1, 2
+EXIT_UNSTABLE, EXIT_BAD_INPUT, EXIT_NOT_CONVERGED = 1, 2, 3
 
 
 def _parser() -> argparse.ArgumentParser:
@@ -90,23 +91,34 @@ def _run(args) -> int:
     print(f"{scene.name}: {run.model.particle_count} particles, {run.model.virtual_count} virtual points, "
           f"dt = {run.dt:.4g} s, output in {out}")  # fmt: skip
     interactive = sys.stderr.isatty()
-    bar = tqdm(total=run.end_time, initial=run.time, unit="s", disable=args.no_progress,
+    total = None if run.staged else run.end_time
+    bar = tqdm(total=total, initial=run.time, unit="s", disable=args.no_progress,
                mininterval=0.5 if interactive else 30.0,
-               bar_format="{l_bar}{bar}| t = {n:.4g}/{total:.4g} s [{elapsed}<{remaining}{postfix}]")  # fmt: skip
+               bar_format="{l_bar}{bar}| t = {n:.4g}/{total:.4g} s [{elapsed}<{remaining}{postfix}]" if total else
+               "t = {n:.4g} s [{elapsed}{postfix}]")  # fmt: skip
 
     def progress(t: float, step: int) -> None:
         projection = run.solver.projection
         solve = f", {projection.settings.solver} {projection.iterations[-1]} it" if projection else ""
-        bar.set_postfix_str(f"step {step}{solve}", refresh=False)
-        bar.update(min(t, run.end_time) - bar.n)
+        phase = f"phase {run.phase.name} ({run.phase.kind}), " if run.staged else ""
+        ratio = f", ratio {run.loop['ratio']:.3g}" if "ratio" in run.loop else ""
+        bar.set_postfix_str(f"{phase}step {step}{solve}{ratio}", refresh=False)
+        bar.update((min(t, run.end_time) if total else t) - bar.n)
 
     try:
         s = run.run(progress=progress)
     finally:
         bar.close()
+    for p in s.phases if run.staged else ():
+        criterion = {"equilibrium": "unbalanced-force ratio", "dynamic": "kinetic energy / peak"}.get(p["kind"])
+        reached = f", {criterion} {p['criterion']:.4g}" if criterion and p["criterion"] == p["criterion"] else ""
+        print(f"phase {p['name']} ({p['kind']}): {p['outcome']} after {p['steps']} steps{reached}")
     print(f"done: {s.steps} steps to t = {s.final_time:.6g} s in {s.wall_seconds:.2f} s "
           f"({s.particle_steps_per_second:.3g} particle-steps/s), compile {s.compile_seconds:.2f} s, "
           f"{s.frames} frames")  # fmt: skip
+    if s.status == "not converged":
+        return _fail(EXIT_NOT_CONVERGED, f"phase {s.phases[-1]['name']} did not reach equilibrium within its "
+                     f"max_steps = {run.phase.max_steps}; the phases after it were not run (results in {out})")
     return 0
 
 

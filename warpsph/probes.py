@@ -59,6 +59,8 @@ class Probes:
         self.model = model
         self.probes = list(model.scene.probes)
         x0 = model.particle_x0
+        self.displacement_origin = x0
+        """(N,3) positions displacements are measured from [m] (a phase may reset them)."""
         tol = 1.0e-6 * model.dx
         self.selection: list[np.ndarray] = []
         self.normal: list[np.ndarray | None] = []
@@ -101,7 +103,7 @@ class Probes:
         and, for reactions of rigid regions, their contact forces ``rigid_contact`` (K,3) [N/m or N]
         (NaN without them)."""
         out = {}
-        x0 = self.model.particle_x0
+        x0 = self.displacement_origin
         for p, sel, normal, factor, k in zip(self.probes, self.selection, self.normal, self.area_factor,
                                              self.rigid_index):  # fmt: skip
             if k is not None:

@@ -25,9 +25,13 @@ from warpsph.builder import build
 from warpsph.errors import InputError, SimulationError
 from warpsph.fields import tensor_to_voigt
 from warpsph.io import ResultsWriter, UsdParticleCache, load_checkpoint, save_checkpoint, write_xdmf
-from warpsph.model import Model, State
+from warpsph.initial_stress import geostatic_stress
+from warpsph.model import PLANE_TRACTION, Model, State
+from warpsph.phase_state import ParticleIds, carry_state
+from warpsph.phases import AT_REST, CONVERGED, FINISHED, NOT_CONVERGED, STOPPED, PhaseRecord, default_phases
+from warpsph.phases import phase_scene
 from warpsph.probes import Probes
-from warpsph.scene import Scene
+from warpsph.scene import Phase, Scene
 from warpsph.solver import Solver
 from warpsph.stages.guard import Guard
 
@@ -53,6 +57,11 @@ class RunSummary:
     """Time in the step loop and output, compile time excluded [s]."""
     frames: int = 0
     stage_seconds: dict = field(default_factory=dict)
+    status: str = ""
+    """"finished", "stopped" (at ``--end-time``), "not converged" (an equilibrium phase reached its
+    step cap: the phases after it are not run) or "failed"."""
+    phases: list = field(default_factory=list)
+    """One {name, kind, outcome, criterion, steps} per phase run."""
 
     @property
     def particle_steps_per_second(self) -> float:
@@ -95,29 +104,44 @@ def warm_up(solver: Solver, guard: Guard, state: State, scratch: State, t: float
     return time.perf_counter() - start
 
 
+CHECK_EVERY = 10
+"""Steps between two reads of an equilibrium phase's unbalanced force (or a dynamic phase's kinetic
+energy): each read waits for the device."""
+
+
 class Run:
-    """One simulation run of ``scene`` into ``out_dir`` (see module docstring)."""
+    """One simulation run of ``scene`` into ``out_dir`` (see module docstring): its phases in order
+    (one dynamic phase to the end time for a scene without phases; docs/scenes.md, *Phases*)."""
 
     def __init__(self, scene: Scene, out_dir, *, device: str | None = None, precision: str | None = None,
                  end_time: float | None = None, resume: bool = False, profile: bool = False):  # fmt: skip
         self.scene = scene
         self.out = Path(out_dir)
         self.out.mkdir(parents=True, exist_ok=True)
+        self.device, self.precision, self.profile = device, precision, profile
+        self.phases = default_phases(scene)
+        self.staged = bool(scene.phases)
+        self.stop_time = end_time
+        """``--end-time``: the run stops at this simulated time [s] (None: after the last phase)."""
         self.end_time = scene.simulation.end_time if end_time is None else end_time
-        self.model, self.state = build(scene, device=device, precision=precision)
-        self.scratch = self.model.state()
-        self.scratch.assign(self.state)
-        self.solver = Solver(self.model, profile=profile)
-        self.guard = Guard(self.model, scene.speed_limit)
-        self.probes = Probes(self.model)
-        self.dt = scene.time_step
+        self.ids = ParticleIds(scene)
+        self.records: list[PhaseRecord] = []
         self.step_index = 0
         self.checkpoint_step = None  # step of the last checkpoint written or resumed from
         self.resumed = False
+        self.loop: dict = {}
+        """Loop state of the current phase that a checkpoint keeps (the last ratio, the peak energy)."""
+        ck = None
         if resume and (self.out / CHECKPOINT).exists():
-            self._restore(load_checkpoint(self.out / CHECKPOINT))
+            ck = load_checkpoint(self.out / CHECKPOINT)
         elif resume:
             raise InputError(f"--resume: no {CHECKPOINT} in {self.out}")
+        phase_index = int(ck.meta.get("phase", 0)) if ck is not None else 0
+        if not 0 <= phase_index < len(self.phases):
+            raise InputError("--resume: the checkpoint's phase is not one of this scene's")
+        self._enter_phase(phase_index)
+        if ck is not None:
+            self._restore(ck)
         start_step = self.step_index if self.resumed else None
         self.results = ResultsWriter(self.out / RESULTS, dim=scene.simulation.dim, scene_text=scene.source_text,
                                      particle_ids=self.model.particle_ids, warpsph_version=warpsph.__version__,
@@ -128,13 +152,71 @@ class Run:
         self.summary = RunSummary(time_step=self.dt, particles=self.model.particle_count,
                                   virtual_particles=self.model.virtual_count)  # fmt: skip
 
+    # -- phases -----------------------------------------------------------------------------------
+    @property
+    def phase(self) -> Phase:
+        return self.phases[self.phase_index]
+
+    def _enter_phase(self, index: int, before: tuple | None = None) -> None:
+        """Build phase ``index``'s model, solver and state; ``before`` = (model, state, origin) of the
+        phase before, whose state is carried over."""
+        self.phase_index = index
+        phase = self.phases[index]
+        phase_scene_ = phase_scene(self.scene, index) if self.staged else self.scene
+        self.model, self.state = build(phase_scene_, device=self.device, precision=self.precision)
+        self.model.particle_ids = self.ids.of(self.model.particle_x0)
+        origin = self.model.particle_x0.copy()
+        if before is not None:
+            origin = carry_state(self.ids, before[0], before[1], self.model, self.state, before[2])
+        self.phase_scene = phase_scene_
+        if phase.kind == "k0":
+            self._k0_procedure()
+        damped = phase.kind == "equilibrium"
+        self.solver = Solver(self.model, profile=self.profile, damping=phase.damping if damped else None)
+        self.scratch = self.model.state()
+        self.scratch.assign(self.state)
+        self.guard = Guard(self.model, phase_scene_.speed_limit)
+        self.probes = Probes(self.model)
+        self.dt = phase_scene_.time_step
+        self.origin = origin
+        if phase.reset_displacements:
+            self.origin = host_fields(self.model, self.state)["position"]
+        self.probes.displacement_origin = self.origin
+        self.loop = {}
+        if not self.records or self.records[-1].name != phase.name:
+            start_time = self.time if self.records else 0.0
+            self.phase_start_step, self.phase_start_time = self.step_index, start_time
+            self.records.append(PhaseRecord(phase.name, phase.kind, self.step_index, start_time))
+
+    def _k0_procedure(self) -> None:
+        """Geostatic effective stresses of every active body at once (the K0 procedure): σ′_v from the
+        (buoyant, with pore water) weight above each particle in its column, σ′_h = K0 σ′_v."""
+        m, scene = self.model, self.phase_scene
+        mats = list(scene.materials.values())
+        material = m.particle_material.numpy()[: m.particle_count]
+        water = np.array([mt.water_density if m.pore is not None else 0.0 for mt in mats])
+        unit_weight = (np.array([mt.density for mt in mats]) - water)[material] * -scene.simulation.gravity[1]
+        k0 = np.array([mt.earth_pressure_at_rest for mt in mats])[material]
+        stress = self.state.particle_stress.numpy()
+        stress[: m.particle_count] = geostatic_stress(m.particle_x0, unit_weight, k0, m.dx)
+        self.state.particle_stress.assign(stress)
+
+    @property
+    def phase_time(self) -> float:
+        """Time since the start of the current phase [s]: the loads' time functions run on it."""
+        return (self.step_index - self.phase_start_step) * self.dt
+
     @property
     def time(self) -> float:
-        """Simulated time of the current state [s] (step × Δt, so restarts reproduce it exactly)."""
-        return self.step_index * self.dt
-
+        """Simulated time of the current state [s] (the phase's start plus steps × Δt, so restarts
+        reproduce it exactly)."""
+        if not hasattr(self, "phase_start_step"):
+            return 0.0
+        return self.phase_start_time + self.phase_time
     # -- checkpoints ------------------------------------------------------------------------------
     def _restore(self, ck) -> None:
+        if int(ck.meta.get("phase", 0)) != self.phase_index:
+            raise InputError("--resume: the checkpoint's phase is not the one restored")
         for name, arr in self.state.arrays().items():
             if name not in ck.arrays or ck.arrays[name].shape != arr.numpy().shape:
                 raise InputError(f"--resume: the checkpoint does not match this scene (array {name})")
@@ -143,6 +225,13 @@ class Run:
             self.solver.layout.restore(ck.arrays)
         if float(ck.meta.get("time_step", self.dt)) != self.dt:
             raise InputError("--resume: the checkpoint was written with another time step")
+        if "displacement_origin" in ck.arrays:
+            self.origin = ck.arrays["displacement_origin"]
+            self.probes.displacement_origin = self.origin
+        if "phases" in ck.meta:
+            self.records = [PhaseRecord(**r) for r in json.loads(ck.meta["phases"])]
+            self.loop = json.loads(ck.meta["loop"])
+            self.phase_start_step, self.phase_start_time = self.records[-1].first_step, self.records[-1].start_time
         self.scratch.assign(self.state)
         self.step_index = self.checkpoint_step = ck.step
         self.resumed = True
@@ -152,9 +241,11 @@ class Run:
         arrays = {name: arr.numpy() for name, arr in self.state.arrays().items()}
         if self.solver.layout is not None:
             arrays.update(self.solver.layout.arrays())
+        arrays["displacement_origin"] = self.origin
         save_checkpoint(self.out / CHECKPOINT, step=self.step_index, time=self.time, arrays=arrays,
-                        meta={"time_step": self.dt, "scene": self.scene.name,
-                              "precision": self.model.spec.precision})  # fmt: skip
+                        meta={"time_step": self.dt, "scene": self.scene.name, "precision": self.model.spec.precision,
+                              "phase": self.phase_index, "phases": json.dumps([asdict(r) for r in self.records]),
+                              "loop": json.dumps(self.loop)})  # fmt: skip
 
     # -- output -----------------------------------------------------------------------------------
     def _sample_probes(self, fields=None) -> None:
@@ -175,11 +266,13 @@ class Run:
     def _write_frame(self) -> None:
         fields = host_fields(self.model, self.state)
         frame = {"position": fields["position"]}
-        wanted = self.scene.output.fields
+        if self.staged:
+            frame["id"] = self.model.particle_ids
+        wanted = self.phase_scene.output.fields
         if "velocity" in wanted:
             frame["velocity"] = fields["velocity"]
         if "displacement" in wanted:
-            frame["displacement"] = fields["position"] - self.model.particle_x0
+            frame["displacement"] = fields["position"] - self.origin
         if "stress" in wanted:
             frame["stress"] = tensor_to_voigt(fields["stress"])
         if "pore_pressure" in fields:
@@ -189,12 +282,14 @@ class Run:
         if "darcy_velocity" in wanted:
             frame["darcy_velocity"] = self.solver.projection.darcy_velocity(self.state)
         self._sample_probes(fields)
-        self.results.write_frame(self.step_index, self.time, frame)
+        self.results.write_frame(self.step_index, self.time, frame, phase=self.phase_index)
+        if self.staged:
+            self.results.write_phases([asdict(r) for r in self.records])
         if self.scene.output.xdmf:
             write_xdmf(self.out / RESULTS)
         if self.usd is not None:
             self.usd.write_frame(self.step_index, self.time, frame["position"],
-                                 {k: v for k, v in frame.items() if k != "position"})  # fmt: skip
+                                 {k: v for k, v in frame.items() if k not in ("position", "id")})  # fmt: skip
         self.summary.frames += 1
 
     def _write_record(self, status: str, message: str = "") -> None:
@@ -227,9 +322,12 @@ class Run:
             }  # fmt: skip
         (self.out / RECORD).write_text(json.dumps(record, indent=2, default=str))
 
-    # -- the loop ---------------------------------------------------------------------------------
+    # -- one step ---------------------------------------------------------------------------------
     def _warm_up(self) -> None:
-        self.summary.compile_seconds = warm_up(self.solver, self.guard, self.state, self.scratch, self.time, self.dt)
+        self.summary.compile_seconds += warm_up(self.solver, self.guard, self.state, self.scratch, self.phase_time,
+                                                self.dt)  # fmt: skip
+        if self.solver.damping is not None:
+            self.solver.damping.read()
 
     def _check(self) -> None:
         bad, point = self.guard.find(self.state)
@@ -248,23 +346,136 @@ class Run:
         if broken:
             what = f"has {' and '.join(broken)}"
         else:
-            what = f"moves at {float(np.linalg.norm(f['velocity'][bad])):.4g} m/s, beyond {self.scene.speed_limit_text}"
+            what = (f"moves at {float(np.linalg.norm(f['velocity'][bad])):.4g} m/s, beyond "
+                    f"{self.phase_scene.speed_limit_text}")  # fmt: skip
         self._unstable(f"particle {bad} at {np.array2string(f['position'][bad], precision=4)} m {what}")
 
     def _unstable(self, what: str):
+        where = f" (phase {self.phase.name})" if self.staged else ""
         raise SimulationError(
-            f"unstable at step {self.step_index}, t = {self.time:.6g} s: {what}; the last good checkpoint "
+            f"unstable at step {self.step_index}{where}, t = {self.time:.6g} s: {what}; the last good checkpoint "
             f"(step {self.checkpoint_step}) and the frames written are kept in {self.out}")
 
+    def _step(self) -> None:
+        self.solver.step(self.state, self.scratch, self.phase_time, self.dt)
+        self.state, self.scratch = self.scratch, self.state
+        self.step_index += 1
+        self.summary.steps += 1
+        self._check()
+        self._record_pressure_solve()
+
+    def _output(self, last: bool, frame_every: int, ck_every: int) -> None:
+        """Frames, probe samples and checkpoints at their cadence (steps since the phase's start)."""
+        k = self.step_index - self.phase_start_step
+        if k % frame_every == 0 or last:
+            self._write_frame()
+        elif self.step_index % self.phase_scene.output.probe_every == 0:
+            self._sample_probes()
+        if k % ck_every == 0 or last:
+            self._checkpoint()
+
+    def _cadence(self, damped: bool) -> tuple[int, int]:
+        out = self.phase_scene.output
+        frame_every = max(1, round(out.frame_interval / self.dt))
+        ck_every = max(1, round(out.checkpoint_interval / self.dt)) if out.checkpoint_interval > 0 else frame_every
+        if damped:  # checkpoints where the damping's sums have just been read
+            ck_every = CHECK_EVERY * math.ceil(ck_every / CHECK_EVERY)
+        return frame_every, ck_every
+
+    def _stop_step(self) -> int | None:
+        """The step at which ``--end-time`` stops the run (None without it, or without phases)."""
+        if self.stop_time is None or not self.staged:
+            return None
+        return self.phase_start_step + math.ceil((self.stop_time - self.phase_start_time) / self.dt - 1e-9)
+
+    # -- phases' loops ----------------------------------------------------------------------------
+    def _run_dynamic(self, progress) -> str:
+        phase = self.phase
+        duration = phase.duration if self.staged else self.end_time
+        n_end = max(self.step_index, self.phase_start_step + math.ceil(duration / self.dt - 1e-9))
+        if self.staged:
+            n_end = min(n_end, self.phase_start_step + phase.max_steps)
+        stop = self._stop_step()
+        if stop is not None and stop < n_end:
+            n_end = max(self.step_index, stop)
+        frame_every, ck_every = self._cadence(False)
+        outcome = FINISHED if stop is None or stop >= n_end else STOPPED
+        mass = self.model.particle_mass.numpy()[: self.model.particle_count]
+        while self.step_index < n_end:
+            self._step()
+            k = self.step_index - self.phase_start_step
+            at_rest = False
+            if phase.at_rest > 0.0 and k % CHECK_EVERY == 0:
+                v = self.state.particle_v.numpy()[: self.model.particle_count].astype(np.float64)
+                energy = 0.5 * float(np.sum(mass * np.sum(v * v, axis=1)))
+                peak = max(self.loop.get("peak_energy", 0.0), energy)
+                self.loop["peak_energy"] = peak
+                self.results.append_series("kinetic_energy", self.step_index, self.time, energy)
+                at_rest = peak > 0.0 and energy < phase.at_rest * peak
+                self.records[-1].criterion = energy / peak if peak > 0.0 else 0.0
+            self._output(self.step_index == n_end or at_rest, frame_every, ck_every)
+            if progress is not None:
+                progress(self.time, self.step_index)
+            if at_rest:
+                return AT_REST
+        return outcome
+
+    def _applied_force(self) -> float:
+        """Σ m‖g‖ over the particles plus the loads' resultants at the phase's time [N/m or N]: the
+        scale of the unbalanced-force ratio (docs/scenes.md, *Phases*)."""
+        m = self.model
+        total = float(np.sum(m.particle_mass.numpy()[: m.particle_count])) * float(np.linalg.norm(m.gravity))
+        counts = np.bincount(m.constraint_planes.numpy().reshape(-1, 3).ravel() + 1, minlength=m.plane_count + 1)
+        kinds, vectors = m.plane_kind.numpy(), m.plane_vector.numpy()
+        for p in range(m.plane_count):
+            if kinds[p] == PLANE_TRACTION:
+                area = counts[p + 1] * m.dx ** (m.spec.dim - 1)
+                total += area * float(np.linalg.norm(vectors[p])) * abs(m.plane_functions[p](self.phase_time))
+        for ld in self.phase_scene.loads:
+            if ld.kind == "force":
+                total += float(np.linalg.norm(ld.force)) * abs(ld.time_function(self.phase_time))
+        return total
+
+    def _equilibrate(self, progress) -> tuple[bool, float]:
+        """Damped steps until the unbalanced-force ratio falls below the phase's tolerance (True) or
+        its step cap is reached (False); also the last ratio."""
+        phase = self.phase
+        first = self.phase_start_step
+        frame_every, ck_every = self._cadence(True)
+        ratio = self.loop.get("ratio", math.inf)
+        stop = self._stop_step()
+        while True:
+            self._step()
+            k = self.step_index - first
+            converged = capped = False
+            if k % CHECK_EVERY == 0:
+                unbalanced, energy = self.solver.damping.read()
+                ratio = unbalanced / max(self._applied_force(), 1e-300)
+                self.loop["ratio"] = ratio
+                self.results.append_series("unbalanced_force_ratio", self.step_index, self.time, ratio)
+                self.results.append_series("kinetic_energy", self.step_index, self.time, energy)
+                converged = ratio < phase.tolerance
+                capped = not converged and k >= phase.max_steps
+            stopped = stop is not None and self.step_index >= stop and k % CHECK_EVERY == 0
+            self._output(converged or capped or stopped, frame_every, ck_every)
+            if progress is not None:
+                progress(self.time, self.step_index)
+            if converged or capped or stopped:
+                if stopped and not (converged or capped):
+                    raise _Stopped()
+                return converged, ratio
+
+    def _run_equilibrium(self, progress) -> str:
+        converged, ratio = self._equilibrate(progress)
+        self.records[-1].criterion = ratio
+        return CONVERGED if converged else NOT_CONVERGED
+
+    # -- the loop ---------------------------------------------------------------------------------
     def run(self, progress=None) -> RunSummary:
-        """Step to the end time, writing frames, probes and checkpoints; return the summary.
+        """Run the phases in turn, writing frames, probes and checkpoints; return the summary.
 
         ``progress(time, step)`` is called after every step when given.
         """
-        out = self.scene.output
-        n_end = max(self.step_index, math.ceil(self.end_time / self.dt - 1e-9))
-        frame_every = max(1, round(out.frame_interval / self.dt))
-        ck_every = max(1, round(out.checkpoint_interval / self.dt)) if out.checkpoint_interval > 0 else frame_every
         status, message = "failed", ""
         start = time.perf_counter()
         try:
@@ -273,23 +484,34 @@ class Run:
             if not self.resumed:
                 self._write_frame()
                 self._checkpoint()
-            while self.step_index < n_end:
-                self.solver.step(self.state, self.scratch, self.time, self.dt)
-                self.state, self.scratch = self.scratch, self.state
-                self.step_index += 1
-                self.summary.steps += 1
-                self._check()
-                self._record_pressure_solve()
-                last = self.step_index == n_end
-                if self.step_index % frame_every == 0 or last:
-                    self._write_frame()
-                elif self.step_index % out.probe_every == 0:
-                    self._sample_probes()
-                if self.step_index % ck_every == 0 or last:
-                    self._checkpoint()
-                if progress is not None:
-                    progress(self.time, self.step_index)
-            status = "finished"
+            loops = {"k0": lambda progress: CONVERGED, "dynamic": self._run_dynamic,
+                     "equilibrium": self._run_equilibrium}  # fmt: skip
+            while True:
+                record = self.records[-1]
+                outcome = loops[self.phase.kind](progress)
+                record.last_step, record.end_time, record.outcome = self.step_index, self.time, outcome
+                self.summary.phases.append({"name": record.name, "kind": record.kind, "outcome": outcome,
+                                            "criterion": record.criterion, "steps": record.last_step
+                                            - record.first_step})  # fmt: skip
+                if self.staged:
+                    self.results.write_phases([asdict(r) for r in self.records])
+                if outcome == STOPPED or (outcome == NOT_CONVERGED and self.phase.kind == "equilibrium"):
+                    status = "stopped" if outcome == STOPPED else "not converged"
+                    break
+                if self.phase_index + 1 == len(self.phases):
+                    status = "finished"
+                    break
+                before = (self.model, self.state, self.origin)
+                self._enter_phase(self.phase_index + 1, before)
+                compile_before = time.perf_counter()
+                self._warm_up()
+                start += time.perf_counter() - compile_before
+                self._write_frame()
+                self._checkpoint()
+        except _Stopped:
+            status = "stopped"
+            self.records[-1].last_step, self.records[-1].end_time = self.step_index, self.time
+            self.records[-1].outcome = STOPPED
         except SimulationError as e:
             message = str(e)
             raise
@@ -298,9 +520,16 @@ class Run:
             self.summary.wall_seconds = time.perf_counter() - start
             self.summary.final_step, self.summary.final_time = self.step_index, self.time
             self.summary.stage_seconds = dict(self.solver.stage_seconds)
+            self.summary.status = status
+            if self.staged:
+                self.results.write_phases([asdict(r) for r in self.records])
             self.results.close()
             self._write_record(status, message)
         return self.summary
+
+
+class _Stopped(Exception):
+    """``--end-time`` reached inside an equilibrium phase."""
 
 
 def run_scene(scene: Scene, out_dir, **kwargs) -> RunSummary:

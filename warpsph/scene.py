@@ -259,8 +259,9 @@ class Body:
     pore_pressure: float = 0.0
     """Initial excess pore pressure over the hydrostatic one [Pa, compression positive] (pore_water)."""
     geostatic: bool = False
-    """Add geostatic effective stresses under gravity: σ′_yy = −(ρ − ρ_w) g (top − y) with the body's
-    top, σ′_xx = σ′_zz = K0 σ′_yy (ρ_w = 0 without pore water)."""
+    """Add geostatic effective stresses under gravity: σ′_yy = −(ρ − ρ_w) g (top − y), the top the body's
+    highest particle in the particle's own column, σ′_xx = σ′_zz = K0 σ′_yy (ρ_w = 0 without pore
+    water)."""
 
 
 @dataclass
@@ -432,6 +433,47 @@ class Output:
     """Probes are sampled every this many steps."""
 
 
+PHASE_KINDS = ("k0", "equilibrium", "dynamic")
+"""Kinds of :class:`Phase` (docs/scenes.md, *Phases*)."""
+
+
+@dataclass
+class Phase:
+    """One stage of a staged analysis; the scene's phases run in order, each from the state the one
+    before left (docs/scenes.md, *Phases*).
+
+    kind "k0": geostatic stresses set at once (the K0 procedure for horizontal ground: σ′_v from the
+    weight of the soil above each particle, σ′_h = K0 σ′_v); "equilibrium": static equilibrium
+    under gravity and the phase's loads, reached by dynamics with local damping, ended when the
+    unbalanced-force ratio falls below ``tolerance``; "dynamic": the unmodified solver for ``duration`` [s] (or until the mass is at rest).
+    """
+
+    name: str = "phase"
+    kind: str = "dynamic"
+    duration: float = 0.0
+    """Dynamic: simulated time the phase lasts [s] (> 0)."""
+    tolerance: float = 1.0e-5
+    """Equilibrium: the unbalanced-force ratio at which equilibrium is reached [-]."""
+    max_steps: int = 20000
+    """Equilibrium: the step cap (a phase that reaches it has not converged); dynamic: a cap on the
+    phase's steps too."""
+    damping: float = 0.8
+    """Equilibrium: the local damping coefficient α in [0, 1) [-]."""
+    at_rest: float = 0.0
+    """Dynamic: end the phase once the kinetic energy has fallen below this fraction of its peak in
+    the phase [-] (0: run the whole duration)."""
+    activate: list[str] = field(default_factory=list)
+    """Bodies, loads and boundaries switched on at the start of this phase; an item that some
+    phase activates is off before it."""
+    deactivate: list[str] = field(default_factory=list)
+    """Bodies (excavation), loads and boundaries switched off at the start of this phase."""
+    changes: dict[str, object] = field(default_factory=dict)
+    """Scene keys set from this phase on, by their key paths: ``"bodies.dyke.material" = "clay"``,
+    ``"loads.top.traction" = [0, -2e4]``, ``"materials.soil.cohesion" = 5e3``."""
+    reset_displacements: bool = False
+    """Measure displacements from the positions at the start of this phase."""
+
+
 @dataclass
 class Scene:
     """A complete simulation set-up."""
@@ -446,6 +488,8 @@ class Scene:
     probes: list[Probe] = field(default_factory=list)
     pressure: PressureSolver = field(default_factory=PressureSolver)
     output: Output = field(default_factory=Output)
+    phases: list[Phase] = field(default_factory=list)
+    """Staged analysis: the phases in order; none runs one dynamic phase to ``simulation.end_time``."""
     source_text: str = ""
     """The scene file's text, stored in results for provenance (empty for Python-built scenes)."""
 

@@ -134,13 +134,18 @@ def _from_table(cls, key: str, table, exclude: tuple[str, ...] = (), **given):
     return cls(**values, **given)
 
 
+def convert_field(owner, name: str, key: str, value):
+    """The TOML ``value`` of field ``owner.name`` converted as a scene file's, errors naming ``key``."""
+    return _from_value(owner, name, key, value, field_hints(owner)[name])
+
+
 def _from_value(owner, name: str, key: str, value, hint):
     """Convert the TOML value of field ``owner.name`` (type ``hint``) found at ``key``."""
     hint = optional_inner(hint) or hint
     origin, args = typing.get_origin(hint), typing.get_args(hint)
     if dataclasses.is_dataclass(hint):
         return _from_table(hint, key, value)
-    if origin is dict:
+    if origin is dict and args[1] is not object:
         return _named_tables(key, value, args[1])
     if origin is list and dataclasses.is_dataclass(args[0]):
         return _array_of_tables(key, value, args[0])

@@ -2,7 +2,8 @@
 
 ``Solver(model).step(state_in, state_out, t, dt)`` advances from tⁿ = t to tⁿ⁺¹ = t + Δt; the
 caller swaps the states. Which stages exist follows the model's :class:`~warpsph.sph.spec.Spec`
-(scheme and effects); each stage only launches kernels of its own module. With ``profile=True``
+(scheme and effects), and an equilibrium phase adds local damping; each stage only launches kernels
+of its own module. With ``profile=True``
 every stage is synchronised and timed into ``stage_seconds``.
 """
 
@@ -22,6 +23,7 @@ from warpsph.sph.neighbours import NeighbourList
 from warpsph.stages.boundaries import Boundaries
 from warpsph.stages.collocated import RK_TABLEAU, collocated_kernels
 from warpsph.stages.corrections import FitData, compute_fit_data
+from warpsph.stages.damping import LocalDamping
 from warpsph.stages.ghost_layout import GhostLayout
 from warpsph.stages.rigid import RigidRegions
 from warpsph.stages.shifting import apply_shift, compute_shift
@@ -41,7 +43,7 @@ class Stage:
 class Solver:
     """Advances a State by one step with the scheme the model's spec selects."""
 
-    def __init__(self, model: Model, profile: bool = False):
+    def __init__(self, model: Model, profile: bool = False, damping: float | None = None):
         self.model = model
         self.profile = profile
         self.stage_seconds: dict[str, float] = {}
@@ -62,6 +64,11 @@ class Solver:
             self._init_two_set()
         else:
             self._init_collocated()
+        self.damping: LocalDamping | None = None
+        """Local damping of an equilibrium phase (``damping`` = its coefficient α), the last stage."""
+        if damping is not None:
+            self.damping = LocalDamping(model, damping)
+            self.stages.append(Stage("local_damping", lambda si, so, t, dt: self.damping.run(si, so, dt)))
 
     # -- two-set Taylor-SPH -------------------------------------------------------------------
     def _init_two_set(self) -> None:

@@ -35,6 +35,8 @@ from warpsph.scene import (
     Load,
     Material,
     Output,
+    PHASE_KINDS,
+    Phase,
     PressureSolver,
     Probe,
     Region,
@@ -251,6 +253,10 @@ def convert(key: str, value, hint, pad: bool = False, finite: bool = True):
         if not _is_list(value):
             raise SceneError(key, f"expected a list, got {show(value)}")
         return [convert(f"{key}[{i}]", v, args[0], pad, finite) for i, v in enumerate(value)]
+    if origin is dict and args[1] is object:  # key paths to values, checked where they are applied
+        if not isinstance(value, dict) or not all(isinstance(k, str) for k in value):
+            raise SceneError(key, f"expected a table of key paths and values, got {show(value)}")
+        return dict(value)
     raise TypeError(f"{key}: unsupported field type {hint!r}")
 
 
@@ -305,8 +311,19 @@ def _is_list(value) -> bool:
 
 
 def validate_scene(scene: Scene) -> None:
-    """Check ``scene``; raise :class:`SceneError` naming the key path of the first problem."""
+    """Check ``scene``; raise :class:`SceneError` naming the key path of the first problem. A scene
+    with phases is checked as each phase runs it: the first phase's problems name the plain key, a
+    later phase's are prefixed ``phases.<name>:``."""
     check_instance("", scene, Scene)
+    if not _is_list(scene.phases):
+        raise SceneError("phases", f"expected a list of phases, got {type(scene.phases).__name__}")
+    if scene.phases:
+        _check_phases(scene)
+        return
+    _validate_one_phase(scene)
+
+
+def _validate_one_phase(scene: Scene) -> None:
     as_string("name", scene.name)
     _check_simulation(scene.simulation)
     _check_effects(scene.effects)
@@ -336,6 +353,47 @@ def validate_scene(scene: Scene) -> None:
     for i, probe in enumerate(probes):
         _check_probe(probe, item_key("probes", probe.name, i), scene)
     _check_output(scene.output, scene.effects)
+
+
+def _check_phases(scene: Scene) -> None:
+    """The phases' own keys, then every phase's scene (:func:`warpsph.phases.phase_scene`)."""
+    from warpsph.phases import SWITCHED, phase_scene
+
+    phases = _named_items(scene, "phases", Phase)
+    check_unique("phase", ("phases", phases))
+    items = {section: [getattr(item, "name", None) for item in getattr(scene, section)] for section in SWITCHED}
+    known = {name for names in items.values() for name in names}
+    for i, phase in enumerate(phases):
+        key = item_key("phases", phase.name, i)
+        check_types(phase, key)
+        check_choice(f"{key}.kind", phase.kind, PHASE_KINDS)
+        if phase.kind == "dynamic":
+            check_range(f"{key}.duration", phase.duration, POSITIVE)
+        check_range(f"{key}.tolerance", phase.tolerance, POSITIVE)
+        check_range(f"{key}.max_steps", phase.max_steps, Interval(1.0, lo_closed=True, hi_closed=True))
+        check_range(f"{key}.damping", phase.damping, Interval(0.0, 1.0, lo_closed=True))
+        check_range(f"{key}.at_rest", phase.at_rest, Interval(0.0, 1.0, lo_closed=True))
+        for list_key in ("activate", "deactivate"):
+            for j, name in enumerate(getattr(phase, list_key)):
+                if name not in known:
+                    raise SceneError(f"{key}.{list_key}[{j}]", f"no body, load or boundary named {show(name)}; "
+                                     f"defined: {', '.join(sorted(map(str, known))) or 'none'}")  # fmt: skip
+        if phase.kind == "k0" and i != 0:
+            raise SceneError(f"{key}.kind", '"k0" sets the initial stresses: it is accepted for the first phase only')
+    for i, phase in enumerate(phases):
+        key = item_key("phases", phase.name, i)
+        staged = phase_scene(scene, i)
+        if not staged.bodies:
+            raise SceneError(f"{key}.deactivate", "this phase leaves no body active: a phase needs particles")
+        if phase.kind == "equilibrium" and not any(staged.simulation.gravity) and not staged.loads:
+            raise SceneError(f"{key}.kind", f"an {phase.kind} phase needs gravity or a load to balance; this one "
+                             "has neither, so it would do nothing")  # fmt: skip
+        try:
+            _validate_one_phase(staged)
+        except SceneError as e:
+            if i == 0:
+                raise
+            raise SceneError(key, f"{e.key}: {e.message}" if e.key else e.message) from None
 
 
 def _named_items(scene: Scene, section: str, cls) -> list:

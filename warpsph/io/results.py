@@ -86,9 +86,10 @@ class ResultsWriter:
                         group[column].resize((data.size,))
                         group[column][...] = data
 
-    def write_frame(self, step: int, time: float, fields: dict[str, np.ndarray]) -> None:
-        """Append frame ``/frames/NNNNNN`` (time [s], step) with one dataset per field, then flush
-        the buffered series. The file is closed again before returning."""
+    def write_frame(self, step: int, time: float, fields: dict[str, np.ndarray], **attrs) -> None:
+        """Append frame ``/frames/NNNNNN`` (time [s], step and the scalar ``attrs``, e.g. its phase) with
+        one dataset per field, then flush the buffered series. The file is closed again before
+        returning."""
         self._check_open()
         with _open(self.path, "r+") as f:
             frames = f["frames"]
@@ -96,9 +97,26 @@ class ResultsWriter:
             group = frames.create_group(f"{index:06d}")
             for name, data in fields.items():
                 group.create_dataset(name, data=np.asarray(data))
+            group.attrs.update(attrs)
             group.attrs["time"] = float(time)
             group.attrs["step"] = int(step)  # written last: marks the frame complete
             self._flush_series(f)
+
+    def write_phases(self, records: list[dict]) -> None:
+        """Replace ``/phases``: one row per phase, columns ``name``, ``kind``, ``outcome`` (strings),
+        ``first_step``, ``last_step`` (int64), ``start_time``, ``end_time``, ``criterion`` (float64)."""
+        self._check_open()
+        with _open(self.path, "r+") as f:
+            if "phases" in f:
+                del f["phases"]
+            group = f.create_group("phases")
+            text = h5py.string_dtype()
+            for column in ("name", "kind", "outcome"):
+                group.create_dataset(column, data=np.array([r[column] for r in records], dtype=object), dtype=text)
+            for column in ("first_step", "last_step"):
+                group.create_dataset(column, data=np.array([r[column] for r in records], dtype=np.int64))
+            for column in ("start_time", "end_time", "criterion"):
+                group.create_dataset(column, data=np.array([r[column] for r in records], dtype=np.float64))
 
     def append_series(self, name: str, step: int, time: float, value: float) -> None:
         """Buffer one sample of scalar series ``name`` (time [s]); written at the next frame or close()."""
@@ -199,6 +217,22 @@ class Results:
         """Field ``name`` stacked over all frames, shape (F, N, ...)."""
         with self._open() as f:
             return np.stack([f["frames"][k][name][()] for k in _frames(f)])
+
+    @property
+    def phases(self) -> list[dict]:
+        """The phases run, in order: dicts with name, kind, outcome, first_step, last_step, start_time,
+        end_time and criterion; [] for a run without phases."""
+        with self._open() as f:
+            if "phases" not in f:
+                return []
+            g = f["phases"]
+            return [{k: _plain(g[k][i]) for k in g} for i in range(len(g["name"]))]
+
+    @property
+    def frame_phases(self) -> np.ndarray:
+        """The phase index of each frame, shape (F,) (0 for a run without phases)."""
+        with self._open() as f:
+            return np.array([f["frames"][k].attrs.get("phase", 0) for k in _frames(f)], dtype=np.int64)
 
     @property
     def series_names(self) -> list[str]:

@@ -3,49 +3,100 @@
 Only shapes and attributes are read (no particle data), the XML of frames seen before is reused,
 and the file is replaced atomically, so rewriting it after every frame is cheap and a kill never
 leaves half a file.
+
+An (N,6) dataset (``stress``, Voigt order xx, yy, zz, yz, xz, xy) is not written as an XDMF
+``Tensor6``: the readers disagree on that type's component order (VTK's Xdmf2 reader, ParaView's
+"XDMF Reader", expands it as xx, xy, xz, yy, yz, zz; the Xdmf3 readers pass the six numbers through
+and ParaView labels them XX, YY, ZZ, XY, YZ, XZ), so every order is wrong in one of them. Instead
+each component is its own Scalar attribute, ``stress_xx`` ... ``stress_xy``, whose HyperSlab
+DataItem selects one column of the stored dataset (no data is copied). docs/output.md lists what
+each reader shows; tests/test_xdmf_readers.py checks it with VTK's reader.
 """
 
 from __future__ import annotations
 
 import os
-import xml.etree.ElementTree as ET
 from pathlib import Path
+from xml.sax.saxutils import escape, quoteattr
 
 import h5py
+import numpy as np
 
-from .results import _frames, _open
+from .results import _open
 
-# Attribute type by trailing shape. Tensor6 data stays in our Voigt order (xx,yy,zz,yz,xz,xy);
-# docs/output.md says how ParaView labels its components.
-_ATTRIBUTE_TYPES = {(): "Scalar", (3,): "Vector", (6,): "Tensor6", (9,): "Tensor"}
+# Attribute type by trailing shape; (N,6) datasets become one Scalar per component (see above).
+_ATTRIBUTE_TYPES = {(): "Scalar", (3,): "Vector", (9,): "Tensor"}
+VOIGT = ("xx", "yy", "zz", "yz", "xz", "xy")  # column order of every (N,6) dataset
 _NUMBER_TYPES = {"f": "Float", "i": "Int", "u": "UInt"}
+_INDENT = "  "
 
 
-def _data_item(parent: ET.Element, ref: str, ds: h5py.Dataset) -> None:
-    item = ET.SubElement(parent, "DataItem", Format="HDF", NumberType=_NUMBER_TYPES[ds.dtype.kind],
-                         Precision=str(ds.dtype.itemsize), Dimensions=" ".join(map(str, ds.shape)))
-    item.text = f"{ref}:{ds.name}"
+def _data_item(ref: str, ds: h5py.Dataset, depth: int) -> str:
+    """Plain HDF DataItem over the whole dataset ``ds``."""
+    dtype = ds.dtype
+    return (f'{_INDENT * depth}<DataItem Format="HDF" NumberType="{_NUMBER_TYPES[dtype.kind]}" '
+            f'Precision="{dtype.itemsize}" Dimensions="{" ".join(map(str, ds.shape))}">'
+            f'{escape(f"{ref}:{ds.name}")}</DataItem>\n')
+
+
+def _columns(ref: str, ds: h5py.Dataset, depth: int) -> list[str]:
+    """One HyperSlab DataItem per column of the (N,M) dataset ``ds``, each selecting that column as
+    an (N,) array: its first child holds start (row, column), stride and count, its second is the
+    whole dataset."""
+    n, m, dtype, pad = *ds.shape, ds.dtype, _INDENT * depth
+    whole = _data_item(ref, ds, depth + 1)
+    head = (f'{pad}<DataItem ItemType="HyperSlab" Dimensions="{n}" NumberType="{_NUMBER_TYPES[dtype.kind]}" '
+            f'Precision="{dtype.itemsize}">\n{pad}{_INDENT}<DataItem Dimensions="3 2" Format="XML">')
+    return [f"{head}0 {column} 1 1 {n} 1</DataItem>\n{whole}{pad}</DataItem>\n" for column in range(m)]
+
+
+def _attribute(name: str, kind: str, item: str) -> str:
+    pad = _INDENT * 4
+    return f'{pad}<Attribute Name={quoteattr(name)} AttributeType="{kind}" Center="Node">\n{item}{pad}</Attribute>\n'
 
 
 def _grid(frame: h5py.Group, vertex: h5py.Dataset | None, ref: str) -> str:
     """XML of one frame's Polyvertex grid ("" when the frame has no ``position``)."""
     if "position" not in frame:
         return ""
-    n = frame["position"].shape[0]
-    grid = ET.Element("Grid", Name=f"frame_{frame.name.rsplit('/', 1)[1]}", GridType="Uniform")
-    ET.SubElement(grid, "Time", Value=repr(float(frame.attrs["time"])))
-    topology = ET.SubElement(grid, "Topology", TopologyType="Polyvertex",
-                             NumberOfElements=str(n), NodesPerElement="1")
+    position = frame["position"]
+    n = position.shape[0]
+    pad = _INDENT * 3
+    xml = [f'{pad}<Grid Name={quoteattr("frame_" + frame.name.rsplit("/", 1)[1])} GridType="Uniform">\n',
+           f'{pad}{_INDENT}<Time Value="{float(frame.attrs["time"])!r}" />\n',
+           f'{pad}{_INDENT}<Topology TopologyType="Polyvertex" NumberOfElements="{n}" NodesPerElement="1"']
     if vertex is not None and vertex.shape == (n,):
-        _data_item(topology, ref, vertex)
-    _data_item(ET.SubElement(grid, "Geometry", GeometryType="XYZ"), ref, frame["position"])
+        xml.append(f'>\n{_data_item(ref, vertex, 5)}{pad}{_INDENT}</Topology>\n')
+    else:
+        xml.append(" />\n")
+    xml.append(f'{pad}{_INDENT}<Geometry GeometryType="XYZ">\n{_data_item(ref, position, 5)}'
+               f'{pad}{_INDENT}</Geometry>\n')
     for key, ds in frame.items():
-        kind = _ATTRIBUTE_TYPES.get(ds.shape[1:]) if ds.shape[:1] == (n,) else None
-        if key == "position" or kind is None or ds.dtype.kind not in _NUMBER_TYPES:
+        if key == "position" or not isinstance(ds, h5py.Dataset):
             continue
-        _data_item(ET.SubElement(grid, "Attribute", Name=key, AttributeType=kind, Center="Node"), ref, ds)
-    ET.indent(grid, space="  ", level=3)
-    return "      " + ET.tostring(grid, encoding="unicode").rstrip() + "\n"
+        shape = ds.shape
+        if shape[:1] != (n,) or ds.dtype.kind not in _NUMBER_TYPES:
+            continue
+        if shape[1:] == (len(VOIGT),):
+            xml.extend(_attribute(f"{key}_{component}", "Scalar", item)
+                       for component, item in zip(VOIGT, _columns(ref, ds, 5)))
+        elif (kind := _ATTRIBUTE_TYPES.get(shape[1:])) is not None:
+            xml.append(_attribute(key, kind, _data_item(ref, ds, 5)))
+    xml.append(f"{pad}</Grid>\n")
+    return "".join(xml)
+
+
+def _stamp(frames: h5py.Group, name: str, step: np.ndarray, time: np.ndarray) -> tuple[int, float] | None:
+    """(step, time) of frame ``name``, or None while it is incomplete (no ``step`` attribute, which
+    is written last; the rule of results._frames). Low-level reads: this runs for every frame on
+    every call, and h5py's ``attrs`` costs twice as much."""
+    group = h5py.h5g.open(frames.id, name.encode())
+    try:
+        h5py.h5a.open(group, b"step").read(step)
+    except KeyError:
+        return None
+    h5py.h5a.open(group, b"time").read(time)
+    return int(step), float(time)
 
 
 # Frames never change once complete, so their XML is kept per (results file, xdmf file) and only
@@ -57,7 +108,8 @@ def write_xdmf(h5_path, xdmf_path=None) -> Path:
     """Write the XDMF file for ``h5_path`` (default: same stem, ``.xdmf``) and return its path.
 
     One Polyvertex grid per frame in a temporal collection; geometry from ``position``, one
-    attribute per other dataset with shape (N,), (N,3), (N,6) or (N,9) and a numeric dtype.
+    attribute per other dataset with shape (N,), (N,3) or (N,9) and a numeric dtype, and one
+    Scalar attribute ``NAME_xx`` ... ``NAME_xy`` per component of an (N,6) dataset.
     """
     h5_path = Path(h5_path)
     xdmf_path = Path(xdmf_path) if xdmf_path is not None else h5_path.with_suffix(".xdmf")
@@ -66,11 +118,16 @@ def write_xdmf(h5_path, xdmf_path=None) -> Path:
     old, new = _cache.get(key, {}), {}
     with _open(h5_path, "r") as f:
         vertex, created = f.get("particles/vertex"), f.attrs.get("created")
-        for name in _frames(f):
-            frame = f["frames"][name]
-            stamp = (created, frame.attrs["step"], frame.attrs["time"])
+        frames = f.get("frames")
+        names = sorted(frames, key=int) if frames is not None else []
+        step, time = np.empty((), np.int64), np.empty((), np.float64)
+        for name in names:
+            stamp = _stamp(frames, name, step, time)
+            if stamp is None:
+                continue
+            stamp = (created, *stamp)
             cached = old.get(name)
-            new[name] = cached if cached and cached[0] == stamp else (stamp, _grid(frame, vertex, ref))
+            new[name] = cached if cached and cached[0] == stamp else (stamp, _grid(frames[name], vertex, ref))
     _cache[key] = new
 
     tmp = xdmf_path.with_name(f".{xdmf_path.name}.tmp")

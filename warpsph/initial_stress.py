@@ -1,0 +1,42 @@
+"""Geostatic initial stresses: the weight of the soil above each particle (docs/scenes.md, *Phases*).
+
+The depth of a particle is measured up its own lattice column (the particles sharing its x, and z in
+3D) to the highest particle of that column, so a slope's toe carries the cover above the toe, not the
+height of the crest. Layers of different unit weights add up: σ′_v = −Σ γ′ Δy, integrated by the
+trapezoidal rule between the column's particles.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+
+def overburden(points: np.ndarray, unit_weight: np.ndarray, dx: float) -> np.ndarray:
+    """Vertical stress σ_v [Pa] (tension positive, so ≤ 0) at the (N,3) lattice ``points`` from the
+    weight of the particles above each in its column; ``unit_weight`` (N,) is γ [N/m³] per particle."""
+    n = len(points)
+    if n == 0:
+        return np.zeros(0)
+    columns = np.round(points[:, [0, 2]] / dx).astype(np.int64)
+    _, column = np.unique(columns, axis=0, return_inverse=True)
+    column = column.reshape(-1)
+    order = np.lexsort((-points[:, 1], column))  # by column, then from the top down
+    y, gamma, col = points[order, 1], unit_weight[order], column[order]
+    same = np.r_[False, col[1:] == col[:-1]]
+    interval = np.where(same, 0.5 * (gamma + np.r_[gamma[:1], gamma[:-1]]) * (np.r_[y[:1], y[:-1]] - y), 0.0)
+    total = np.cumsum(interval)
+    start = np.maximum.accumulate(np.where(same, 0, np.arange(n)))
+    depth_weight = total - total[start] + interval[start]
+    out = np.empty(n)
+    out[order] = -depth_weight
+    return out
+
+
+def geostatic_stress(points: np.ndarray, unit_weight: np.ndarray, k0: np.ndarray, dx: float) -> np.ndarray:
+    """(N,3,3) geostatic effective stress [Pa]: σ′_yy = :func:`overburden` of the (buoyant) unit weights
+    ``unit_weight`` (N,) [N/m³], σ′_xx = σ′_zz = K0 σ′_yy with ``k0`` (N,) per particle."""
+    vertical = overburden(points, unit_weight, dx)
+    out = np.zeros((len(points), 3, 3))
+    out[:, 0, 0] = out[:, 2, 2] = k0 * vertical
+    out[:, 1, 1] = vertical
+    return out

@@ -1,0 +1,119 @@
+"""Staged analysis, host side: the scene each phase runs and the record of what it did.
+
+A phase's scene is the scene's own with the ``changes`` of that phase and of every phase before it
+applied, and only the bodies, loads and boundaries active in it (docs/scenes.md, *Phases*). The run
+loop (:mod:`warpsph.runner`) builds a model per phase and carries the state across
+(:mod:`warpsph.phase_state`).
+"""
+
+from __future__ import annotations
+
+import copy
+import dataclasses
+from dataclasses import dataclass
+
+from warpsph.errors import SceneError
+from warpsph.scene import Phase, Scene
+
+SWITCHED = ("bodies", "loads", "boundaries")
+"""The sections whose items a phase activates or deactivates by name."""
+CONVERGED, NOT_CONVERGED, FINISHED, AT_REST, STOPPED = "converged", "not converged", "finished", "at rest", "stopped"
+"""A phase's outcome: an equilibrium that reached its criterion or its step cap; a
+dynamic phase that ran its duration or came to rest; a phase cut short by ``--end-time``."""
+
+
+@dataclass
+class PhaseRecord:
+    """What a phase did, as written to ``/phases`` of the results and kept in checkpoints."""
+
+    name: str
+    kind: str
+    first_step: int
+    start_time: float
+    last_step: int = -1
+    end_time: float = 0.0
+    outcome: str = ""
+    criterion: float = float("nan")
+    """The criterion reached: the final unbalanced-force ratio (equilibrium) or the final over peak
+    kinetic energy (dynamic with ``at_rest``)."""
+
+
+def default_phases(scene: Scene) -> list[Phase]:
+    """The scene's phases; without any, one dynamic phase to ``simulation.end_time``."""
+    if scene.phases:
+        return list(scene.phases)
+    return [Phase(name="dynamic", kind="dynamic", duration=scene.simulation.end_time, max_steps=2**62)]
+
+
+def active_items(scene: Scene, index: int) -> dict[str, set[str]]:
+    """Names of the bodies, loads and boundaries active in phase ``index``: an item is on from the
+    start unless some phase activates it, then switched by each phase's lists in turn."""
+    phases = scene.phases
+    activated = {name for p in phases for name in p.activate}
+    out = {}
+    for section in SWITCHED:
+        names = {item.name for item in getattr(scene, section)}
+        on = {n for n in names if n not in activated}
+        for p in phases[: index + 1]:
+            on |= names & set(p.activate)
+            on -= set(p.deactivate)
+        out[section] = on
+    return out
+
+
+def phase_scene(scene: Scene, index: int) -> Scene:
+    """The scene phase ``index`` runs: changes of phases 0..index applied, inactive items left out
+    (probes on a plane that is off too), no phases of its own."""
+    out = copy.deepcopy(scene)
+    out.phases = []
+    for k, phase in enumerate(scene.phases[: index + 1]):
+        for path, value in phase.changes.items():
+            set_key(out, path, value, f"phases.{_label(phase, k)}.changes")
+    on = active_items(scene, index)
+    for section in SWITCHED:
+        setattr(out, section, [item for item in getattr(out, section) if item.name in on[section]])
+    planes = {item.name for section in ("loads", "boundaries") for item in getattr(out, section)}
+    out.probes = [p for p in out.probes if p.kind != "reaction" or p.boundary in planes]
+    return out
+
+
+def _label(phase: Phase, index: int) -> str:
+    return phase.name if isinstance(phase.name, str) and phase.name else f"[{index}]"
+
+
+def set_key(scene: Scene, path: str, value, where: str) -> None:
+    """Set the scene key ``path`` (``materials.soil.cohesion``, ``loads.top.traction``, ...) to
+    ``value``, converted and checked as a scene file's value; errors name ``where.path``."""
+    from warpsph.scene_toml import convert_field  # the TOML reader's conversions (it imports this module's users)
+
+    key = f"{where}.{path}"
+    parts = path.split(".")
+    if not all(parts) or len(parts) < 2:
+        raise SceneError(key, "expected a key path such as materials.soil.cohesion")
+    node = scene
+    for depth, part in enumerate(parts[:-1]):
+        here = ".".join(parts[: depth + 1])
+        if isinstance(node, dict):
+            if part not in node:
+                raise SceneError(key, f"no {here}; defined: {', '.join(sorted(node)) or 'none'}")
+            node = node[part]
+        elif isinstance(node, list):
+            names = [item.name for item in node]
+            if part not in names:
+                raise SceneError(key, f"no {here}; defined: {', '.join(names) or 'none'}")
+            node = node[names.index(part)]
+        elif dataclasses.is_dataclass(node) and part in _fields(node) and part not in ("phases", "source_text"):
+            node = getattr(node, part)
+        else:
+            raise SceneError(key, f"{here} is not a scene key")
+        if node is None:
+            raise SceneError(key, f"{here} is not set in the scene, so it has no keys to change")
+    last = parts[-1]
+    if not dataclasses.is_dataclass(node) or last not in _fields(node) or last == "name":
+        raise SceneError(key, f"{path} is not a scene key that a phase can change")
+    setattr(node, last, convert_field(type(node), last, key, value))
+
+
+def _fields(obj) -> set[str]:
+    return {f.name for f in dataclasses.fields(obj)}
+

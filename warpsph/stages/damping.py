@@ -1,0 +1,87 @@
+"""Local (non-viscous) damping of equilibrium phases, and the unbalanced force it drives to zero.
+
+After the step has computed every particle's new velocity, the acceleration of the step a = (vⁿ⁺¹ −
+vⁿ)/Δt is the unbalanced force per unit mass; each component is damped by a force against the
+particle's motion in proportion to it, a_d = a − α |a| sign(vⁿ) (Cundall's local damping, as FLAC
+uses it: no frequency to tune, off outside equilibrium phases; docs/scenes.md, *Phases*). The same
+pass sums Σ m‖a‖ and the kinetic energy ½ Σ m v² of the owned particles. Particles whose velocity
+a plane or a rigid load prescribes are left as they are.
+"""
+
+from __future__ import annotations
+
+import functools
+
+import numpy as np
+import warp as wp
+
+from warpsph.launching import launch
+from warpsph.model import PLANE_VELOCITY, Model
+from warpsph.sph.spec import Spec
+
+
+@functools.cache
+def damping_kernel(spec: Spec):
+    real, vec3 = spec.real, spec.vec3
+
+    @wp.kernel(enable_backward=False, module="unique")
+    def local_damping(
+        alpha: real,
+        dt: real,
+        mass: wp.array(dtype=real),
+        free: wp.array(dtype=wp.int32),
+        v_in: wp.array(dtype=vec3),
+        v_out: wp.array(dtype=vec3),
+        sums: wp.array(dtype=wp.float64),
+    ):
+        i = wp.tid()
+        a = (v_out[i] - v_in[i]) / dt
+        if free[i] != 0:
+            damped = vec3()
+            for k in range(3):
+                damped[k] = a[k] - alpha * wp.abs(a[k]) * wp.sign(v_in[i][k])
+            v_out[i] = v_in[i] + dt * damped
+        wp.atomic_add(sums, 0, wp.float64(mass[i] * wp.length(a)))
+        wp.atomic_add(sums, 1, wp.float64(real(0.5) * mass[i] * wp.dot(v_out[i], v_out[i])))
+
+    return local_damping
+
+
+def velocity_prescribed(model: Model) -> np.ndarray:
+    """(N,) bool: owned particles on a velocity plane or in a rigid "velocity" load's region."""
+    out = np.zeros(model.particle_count, dtype=bool)
+    kinds = model.plane_kind.numpy()
+    planes = model.constraint_planes.numpy().reshape(-1, 3)
+    on_velocity_plane = np.any((planes >= 0) & (kinds[np.maximum(planes, 0)] == PLANE_VELOCITY), axis=1)
+    out[model.constraint_particle.numpy()[on_velocity_plane]] = True
+    rigid = [ld for ld in model.scene.loads if ld.kind in ("velocity", "force")]
+    velocity_loads = np.array([ld.kind == "velocity" for ld in rigid] or [False])
+    members, load = model.region_particle.numpy(), model.region_load.numpy()
+    out[members[velocity_loads[load]]] = True
+    return out
+
+
+class LocalDamping:
+    """The damping pass of an equilibrium phase: ``run`` after the step's prescribed values; the sums
+    accumulate over the steps between two :meth:`read` calls."""
+
+    def __init__(self, model: Model, alpha: float):
+        self.model, self.alpha = model, alpha
+        dev = model.device
+        self.free = wp.array((~velocity_prescribed(model)).astype(np.int32), dtype=wp.int32, device=dev)
+        self.sums = wp.zeros(2, dtype=wp.float64, device=dev)
+        self.steps = 0
+
+    def run(self, si, so, dt: float) -> None:
+        m = self.model
+        launch(damping_kernel(m.spec), m.particle_count,
+               [m.spec.real(self.alpha), m.spec.real(dt), m.particle_mass, self.free, si.particle_v, so.particle_v,
+                self.sums], m.device)  # fmt: skip
+        self.steps += 1
+
+    def read(self) -> tuple[float, float]:
+        """(Σ m‖a‖ [N or N/m], ½ Σ m v² [J or J/m]), each the mean over the steps since the last read."""
+        sums = self.sums.numpy() / max(self.steps, 1)
+        self.sums.zero_()
+        self.steps = 0
+        return float(sums[0]), float(sums[1])
