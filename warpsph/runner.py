@@ -127,6 +127,7 @@ class Run:
         self.ids = ParticleIds(scene)
         self.records: list[PhaseRecord] = []
         self.step_index = 0
+        self.phase_start_step, self.phase_start_time, self.dt = 0, 0.0, 0.0
         self.checkpoint_step = None  # step of the last checkpoint written or resumed from
         self.resumed = False
         self.loop: dict = {}
@@ -160,6 +161,7 @@ class Run:
     def _enter_phase(self, index: int, before: tuple | None = None) -> None:
         """Build phase ``index``'s model, solver and state; ``before`` = (model, state, origin) of the
         phase before, whose state is carried over."""
+        now = self.time  # the phase before's end, taken before Δt changes
         self.phase_index = index
         phase = self.phases[index]
         phase_scene_ = phase_scene(self.scene, index) if self.staged else self.scene
@@ -183,10 +185,8 @@ class Run:
             self.origin = host_fields(self.model, self.state)["position"]
         self.probes.displacement_origin = self.origin
         self.loop = {}
-        if not self.records or self.records[-1].name != phase.name:
-            start_time = self.time if self.records else 0.0
-            self.phase_start_step, self.phase_start_time = self.step_index, start_time
-            self.records.append(PhaseRecord(phase.name, phase.kind, self.step_index, start_time))
+        self.phase_start_step, self.phase_start_time = self.step_index, now
+        self.records.append(PhaseRecord(phase.name, phase.kind, self.step_index, self.phase_start_time))
 
     def _k0_procedure(self) -> None:
         """Geostatic effective stresses of every active body at once (the K0 procedure): σ′_v from the
@@ -210,8 +210,6 @@ class Run:
     def time(self) -> float:
         """Simulated time of the current state [s] (the phase's start plus steps × Δt, so restarts
         reproduce it exactly)."""
-        if not hasattr(self, "phase_start_step"):
-            return 0.0
         return self.phase_start_time + self.phase_time
     # -- checkpoints ------------------------------------------------------------------------------
     def _restore(self, ck) -> None:
