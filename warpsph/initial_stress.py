@@ -13,7 +13,11 @@ import numpy as np
 
 def overburden(points: np.ndarray, unit_weight: np.ndarray, dx: float) -> np.ndarray:
     """Vertical stress σ_v [Pa] (tension positive, so ≤ 0) at the (N,3) lattice ``points`` from the
-    weight of the particles above each in its column; ``unit_weight`` (N,) is γ [N/m³] per particle."""
+    weight of the particles above each in its column; ``unit_weight`` (N,) is γ [N/m³] per particle.
+
+    A column is split into layers, runs of one unit weight from the top down: inside a layer
+    σ_v = −(W + γ (y_top − y)) with W the weight above the layer's top particle, so a uniform column
+    is exact to rounding and no sum runs across columns."""
     n = len(points)
     if n == 0:
         return np.zeros(0)
@@ -22,13 +26,19 @@ def overburden(points: np.ndarray, unit_weight: np.ndarray, dx: float) -> np.nda
     column = column.reshape(-1)
     order = np.lexsort((-points[:, 1], column))  # by column, then from the top down
     y, gamma, col = points[order, 1], unit_weight[order], column[order]
-    same = np.r_[False, col[1:] == col[:-1]]
-    interval = np.where(same, 0.5 * (gamma + np.r_[gamma[:1], gamma[:-1]]) * (np.r_[y[:1], y[:-1]] - y), 0.0)
-    total = np.cumsum(interval)
-    start = np.maximum.accumulate(np.where(same, 0, np.arange(n)))
-    depth_weight = total - total[start] + interval[start]
+    same_column = np.r_[False, col[1:] == col[:-1]]
+    layer_start = np.flatnonzero(~same_column | np.r_[False, gamma[1:] != gamma[:-1]])
+    layer_end = np.r_[layer_start[1:], n]
+    above = np.zeros(len(layer_start))  # W of each layer
+    for k in range(1, len(layer_start)):
+        first = layer_start[k]
+        if same_column[first]:
+            last = first - 1  # the layer above's bottom particle
+            above[k] = (above[k - 1] + gamma[last] * (y[layer_start[k - 1]] - y[last])
+                        + 0.5 * (gamma[last] + gamma[first]) * (y[last] - y[first]))
+    layer = np.repeat(np.arange(len(layer_start)), layer_end - layer_start)
     out = np.empty(n)
-    out[order] = -depth_weight
+    out[order] = -(above[layer] + gamma * (y[layer_start][layer] - y))
     return out
 
 
