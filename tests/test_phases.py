@@ -126,6 +126,40 @@ def test_gravity_loading_gives_the_elastic_geostatic_stresses(gravity_loading):
     assert ratio_error < 0.01
 
 
+SLOPE = [(0, 0), (8, 0), (8, 3), (6, 3), (2, 1), (0, 1)]  # a 2:1 slope 2 m high on 1 m of ground [m]
+
+
+def test_gravity_loading_of_an_elastic_slope_matches_finite_elements(tmp_path):
+    """A 2:1 elastic slope brought to rest under gravity against a plane-strain P2 finite-element
+    solution of the same polygon (tests/fe_reference.py): every stress component of every particle
+    more than 2.5 Δx inside the body within 5 % of ρg(H + D), the base reaction within 2 % of the
+    finite elements' (the reaction probe integrates the base row's traction)."""
+    from fe_reference import _boundary_distance, elastic_gravity_state
+
+    scene = layered_ground([Phase("gravity", kind="equilibrium", tolerance=1e-5, max_steps=5000)])
+    scene.materials = {"soil": Material("soil", density=2000.0, youngs_modulus=2e7, poisson_ratio=0.3)}
+    scene.bodies = [Body("slope", "soil", shape="polygon", vertices=SLOPE)]
+    scene.boundaries[2].position = 8.0
+    scene.output.fields = ["stress", "displacement"]
+    summary = warpsph.run_scene(scene.validate(), tmp_path, device="cpu")
+    phase = summary.phases[0]
+    results = warpsph.load_results(tmp_path / "results.h5")
+    frame = results.frame(-1)
+    start = (frame["position"] - frame["displacement"])[:, :2]
+    inner = _boundary_distance(np.asarray(SLOPE, float), start) > 2.5 * DX
+    fe = elastic_gravity_state(SLOPE, youngs_modulus=2e7, poisson_ratio=0.3, density=2000.0, element_size=0.1,
+                               points=start[inner])  # fmt: skip
+    sph = frame["stress"][inner][:, [0, 1, 5]]
+    error = np.max(np.abs(sph - fe["stress"]), axis=0) / (2000.0 * G * 3.0)
+    _, reaction = results.series("base_reaction")
+    print(f"\nslope: {phase['outcome']} after {phase['steps']} steps, ratio {phase['criterion']:.3g}; largest "
+          f"errors xx, yy, xy {np.array2string(error, precision=4)} of rho g (H + D); base reaction / FE's "
+          f"{reaction[-1] / fe['base_reaction_y']:.4f}")
+    assert phase["outcome"] == "converged"
+    assert np.all(error < 0.05)
+    assert reaction[-1] == pytest.approx(fe["base_reaction_y"], rel=0.02)
+
+
 def staged_scene(**phase_changes):
     """K0, a surcharge activated under an equilibrium phase, then a dynamic phase from it with the
     displacements reset."""

@@ -23,7 +23,7 @@ from warpsph.sph.neighbours import NeighbourList
 from warpsph.stages.boundaries import Boundaries
 from warpsph.stages.collocated import RK_TABLEAU, collocated_kernels
 from warpsph.stages.corrections import FitData, compute_fit_data
-from warpsph.stages.damping import LocalDamping
+from warpsph.stages.damping import EQUILIBRIUM_VELOCITY_FILTER, LocalDamping
 from warpsph.stages.ghost_layout import GhostLayout
 from warpsph.stages.rigid import RigidRegions
 from warpsph.stages.shifting import apply_shift, compute_shift
@@ -66,7 +66,10 @@ class Solver:
             self._init_collocated()
         self.damping: LocalDamping | None = None
         """Local damping of an equilibrium phase (``damping`` = its coefficient α), the last stage."""
+        self.velocity_filter = model.scene.simulation.velocity_filter
+        """The full step's velocity filter β: at least ``EQUILIBRIUM_VELOCITY_FILTER`` in equilibrium phases."""
         if damping is not None:
+            self.velocity_filter = max(self.velocity_filter, EQUILIBRIUM_VELOCITY_FILTER)
             self.damping = LocalDamping(model, damping)
             self.stages.append(Stage("local_damping", lambda si, so, t, dt: self.damping.run(si, so, dt)))
 
@@ -193,7 +196,7 @@ class Solver:
                 self.virtual_p, self._water_density, si.particle_plastic_strain, m.material_plasticity,
                 so.particle_plastic_strain, int(self.shifting), real(m.scene.simulation.particle_shifting),
                 self.real_shift,
-                own, real(m.scene.simulation.stress_filter), real(m.scene.simulation.velocity_filter),
+                own, real(m.scene.simulation.stress_filter), real(self.velocity_filter),
                 int(not m.scene.simulation.large_deformation), real(m.scene.simulation.dx), self._surface_weight],
                m.device)  # fmt: skip
 
