@@ -10,10 +10,11 @@ from __future__ import annotations
 
 import copy
 import dataclasses
-from dataclasses import dataclass
+import math
+from dataclasses import dataclass, field
 
 from warpsph.errors import SceneError
-from warpsph.scene import Phase, Scene
+from warpsph.scene import Material, Phase, Scene
 
 SWITCHED = ("bodies", "loads", "boundaries")
 """The sections whose items a phase activates or deactivates by name."""
@@ -34,8 +35,67 @@ class PhaseRecord:
     end_time: float = 0.0
     outcome: str = ""
     criterion: float = float("nan")
-    """The criterion reached: the final unbalanced-force ratio (equilibrium) or the final over peak
-    kinetic energy (dynamic with ``at_rest``)."""
+    """The criterion reached: the final unbalanced-force ratio (equilibrium), the factor of safety
+    (safety) or the final over peak kinetic energy (dynamic with ``at_rest``)."""
+    trials: list = field(default_factory=list)
+    """Safety: one [factor, converged (1 or 0), final unbalanced-force ratio, steps] per trial."""
+
+
+def reduced_strength(material: Material, factor: float) -> Material:
+    """``material`` with its strength divided by ``factor`` (strength reduction): c, the residual
+    cohesion and the hardening modulus by F, tan φ and tan ψ by F (so ψ stays ≤ φ)."""
+    def angle(degrees: float) -> float:
+        return math.degrees(math.atan(math.tan(math.radians(degrees)) / factor))
+
+    return dataclasses.replace(material, cohesion=material.cohesion / factor,
+                               residual_cohesion=material.residual_cohesion / factor,
+                               hardening_modulus=material.hardening_modulus / factor,
+                               friction_angle=angle(material.friction_angle),
+                               dilatancy_angle=angle(material.dilatancy_angle))  # fmt: skip
+
+
+class FactorSearch:
+    """The strength-reduction search of a safety phase: trials from F = 1, grown (or shrunk) by
+    ``STEP`` until one trial stands and another fails, then bisected until the bracket is within
+    ± ``tolerance``; the factor of safety is the bracket's middle. Its state is plain data, kept in
+    checkpoints."""
+
+    STEP = 1.5
+    SMALLEST = 0.05
+
+    def __init__(self, tolerance: float, largest: float, state: dict | None = None):
+        self.tolerance, self.largest = tolerance, largest
+        self.state = state or {"low": None, "high": None, "factor": 1.0}
+
+    @property
+    def factor(self) -> float | None:
+        """The next trial's factor (None: the search is over)."""
+        return self.state["factor"]
+
+    def record(self, stands: bool) -> None:
+        """Take the outcome of the trial at :attr:`factor` and choose the next."""
+        s = self.state
+        factor = s["factor"]
+        s["low" if stands else "high"] = factor
+        low, high = s["low"], s["high"]
+        if high is None:
+            s["factor"] = None if factor >= self.largest else min(self.STEP * factor, self.largest)
+        elif low is None:
+            s["factor"] = None if factor <= self.SMALLEST else max(factor / self.STEP, self.SMALLEST)
+        else:
+            s["factor"] = 0.5 * (low + high) if high - low > 2.0 * self.tolerance else None
+
+    @property
+    def bracketed(self) -> bool:
+        return self.state["low"] is not None and self.state["high"] is not None
+
+    @property
+    def result(self) -> float:
+        """The factor of safety: the bracket's middle, or its one end if the search found no bracket."""
+        low, high = self.state["low"], self.state["high"]
+        if self.bracketed:
+            return 0.5 * (low + high)
+        return low if low is not None else high
 
 
 def default_phases(scene: Scene) -> list[Phase]:

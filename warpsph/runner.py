@@ -21,7 +21,7 @@ import numpy as np
 import warp as wp
 
 import warpsph
-from warpsph.builder import build
+from warpsph.builder import build, plastic_materials
 from warpsph.errors import InputError, SimulationError
 from warpsph.fields import tensor_to_voigt
 from warpsph.io import ResultsWriter, UsdParticleCache, load_checkpoint, save_checkpoint, write_xdmf
@@ -29,7 +29,7 @@ from warpsph.initial_stress import geostatic_stress
 from warpsph.model import PLANE_TRACTION, Model, State
 from warpsph.phase_state import ParticleIds, carry_state
 from warpsph.phases import AT_REST, CONVERGED, FINISHED, NOT_CONVERGED, STOPPED, PhaseRecord, default_phases
-from warpsph.phases import phase_scene
+from warpsph.phases import FactorSearch, phase_scene, reduced_strength
 from warpsph.probes import Probes
 from warpsph.scene import Phase, Scene
 from warpsph.solver import Solver
@@ -173,7 +173,7 @@ class Run:
         self.phase_scene = phase_scene_
         if phase.kind == "k0":
             self._k0_procedure()
-        damped = phase.kind == "equilibrium"
+        damped = phase.kind in ("equilibrium", "safety")
         self.solver = Solver(self.model, profile=self.profile, damping=phase.damping if damped else None)
         self.scratch = self.model.state()
         self.scratch.assign(self.state)
@@ -261,7 +261,8 @@ class Run:
         self.results.append_series("pressure_iterations", self.step_index, self.time, projection.iterations[-1])
         self.results.append_series("pressure_residual", self.step_index, self.time, projection.residuals[-1])
 
-    def _write_frame(self) -> None:
+    def _write_frame(self, **attrs) -> None:
+        """Write a frame of the current state (``attrs``: extra attributes of the frame)."""
         fields = host_fields(self.model, self.state)
         frame = {"position": fields["position"]}
         if self.staged:
@@ -280,7 +281,7 @@ class Run:
         if "darcy_velocity" in wanted:
             frame["darcy_velocity"] = self.solver.projection.darcy_velocity(self.state)
         self._sample_probes(fields)
-        self.results.write_frame(self.step_index, self.time, frame, phase=self.phase_index)
+        self.results.write_frame(self.step_index, self.time, frame, phase=self.phase_index, **attrs)
         if self.staged:
             self.results.write_phases([asdict(r) for r in self.records])
         if self.scene.output.xdmf:
@@ -434,11 +435,11 @@ class Run:
                 total += float(np.linalg.norm(ld.force)) * abs(ld.time_function(self.phase_time))
         return total
 
-    def _equilibrate(self, progress) -> tuple[bool, float]:
-        """Damped steps until the unbalanced-force ratio falls below the phase's tolerance (True) or
-        its step cap is reached (False); also the last ratio."""
+    def _equilibrate(self, progress, first: int, output: bool = True) -> tuple[bool, float]:
+        """Damped steps from step ``first`` until the unbalanced-force ratio falls below the phase's
+        tolerance (True) or its step cap is reached (False); also the last ratio. ``output``: write
+        frames and checkpoints at their cadence (a safety trial writes its last frame only)."""
         phase = self.phase
-        first = self.phase_start_step
         frame_every, ck_every = self._cadence(True)
         ratio = self.loop.get("ratio", math.inf)
         stop = self._stop_step()
@@ -455,7 +456,8 @@ class Run:
                 converged = ratio < phase.tolerance
                 capped = not converged and k >= phase.max_steps
             stopped = stop is not None and self.step_index >= stop and k % CHECK_EVERY == 0
-            self._output(converged or capped or stopped, frame_every, ck_every)
+            if output:
+                self._output(converged or capped or stopped, frame_every, ck_every)
             if progress is not None:
                 progress(self.time, self.step_index)
             if converged or capped or stopped:
@@ -464,9 +466,39 @@ class Run:
                 return converged, ratio
 
     def _run_equilibrium(self, progress) -> str:
-        converged, ratio = self._equilibrate(progress)
+        converged, ratio = self._equilibrate(progress, self.phase_start_step)
         self.records[-1].criterion = ratio
         return CONVERGED if converged else NOT_CONVERGED
+
+    def _run_safety(self, progress) -> str:
+        """Strength reduction (:class:`~warpsph.phases.FactorSearch`): each trial an equilibrium from
+        the phase's start state with c, tan φ and tan ψ divided by the trial factor F; a trial stands
+        when it converges within the phase's step cap. Each trial's last state is written as a frame
+        (attributes ``factor`` and ``converged``), the state is then put back to the phase's start and
+        checkpointed, so the next phase starts from the unreduced state."""
+        phase, record = self.phase, self.records[-1]
+        search = FactorSearch(phase.factor_tolerance, phase.factor_max, self.loop.get("search"))
+        self.loop["search"] = search.state
+        start = {name: arr.numpy().copy() for name, arr in self.state.arrays().items()}
+        materials = list(self.phase_scene.materials.values())
+        spec, device = self.model.spec, self.model.device
+        while search.factor is not None:
+            factor = search.factor
+            self.model.material_plasticity = plastic_materials(spec, [reduced_strength(m, factor) for m in materials],
+                                                               device)  # fmt: skip
+            first = self.step_index
+            self.loop.pop("ratio", None)
+            converged, ratio = self._equilibrate(progress, first, output=False)
+            record.trials.append([factor, int(converged), ratio, self.step_index - first])
+            self._write_frame(factor=factor, converged=int(converged))
+            search.record(converged)
+            for name, arr in self.state.arrays().items():
+                arr.assign(start[name])
+            self.scratch.assign(self.state)
+            self._checkpoint()
+        self.model.material_plasticity = plastic_materials(spec, materials, device)
+        record.criterion = search.result
+        return CONVERGED if search.bracketed else NOT_CONVERGED
 
     # -- the loop ---------------------------------------------------------------------------------
     def run(self, progress=None) -> RunSummary:
@@ -483,17 +515,17 @@ class Run:
                 self._write_frame()
                 self._checkpoint()
             loops = {"k0": lambda progress: CONVERGED, "dynamic": self._run_dynamic,
-                     "equilibrium": self._run_equilibrium}  # fmt: skip
+                     "equilibrium": self._run_equilibrium, "safety": self._run_safety}  # fmt: skip
             while True:
                 record = self.records[-1]
                 outcome = loops[self.phase.kind](progress)
                 record.last_step, record.end_time, record.outcome = self.step_index, self.time, outcome
                 self.summary.phases.append({"name": record.name, "kind": record.kind, "outcome": outcome,
                                             "criterion": record.criterion, "steps": record.last_step
-                                            - record.first_step})  # fmt: skip
+                                            - record.first_step, "trials": record.trials})  # fmt: skip
                 if self.staged:
                     self.results.write_phases([asdict(r) for r in self.records])
-                if outcome == STOPPED or (outcome == NOT_CONVERGED and self.phase.kind == "equilibrium"):
+                if outcome in (STOPPED, NOT_CONVERGED):
                     status = "stopped" if outcome == STOPPED else "not converged"
                     break
                 if self.phase_index + 1 == len(self.phases):

@@ -433,7 +433,7 @@ class Output:
     """Probes are sampled every this many steps."""
 
 
-PHASE_KINDS = ("k0", "equilibrium", "dynamic")
+PHASE_KINDS = ("k0", "equilibrium", "safety", "dynamic")
 """Kinds of :class:`Phase` (docs/scenes.md, *Phases*)."""
 
 
@@ -445,7 +445,9 @@ class Phase:
     kind "k0": geostatic stresses set at once (the K0 procedure for horizontal ground: σ′_v from the
     weight of the soil above each particle, σ′_h = K0 σ′_v); "equilibrium": static equilibrium
     under gravity and the phase's loads, reached by dynamics with local damping, ended when the
-    unbalanced-force ratio falls below ``tolerance``; "dynamic": the unmodified solver for ``duration`` [s] (or until the mass is at rest).
+    unbalanced-force ratio falls below ``tolerance``; "safety": the factor of safety by strength
+    reduction, each trial an equilibrium from the phase's start with the strengths divided by the
+    trial factor; "dynamic": the unmodified solver for ``duration`` [s] (or until the mass is at rest).
     """
 
     name: str = "phase"
@@ -453,12 +455,12 @@ class Phase:
     duration: float = 0.0
     """Dynamic: simulated time the phase lasts [s] (> 0)."""
     tolerance: float = 1.0e-5
-    """Equilibrium: the unbalanced-force ratio at which equilibrium is reached [-]."""
+    """Equilibrium and safety: the unbalanced-force ratio at which equilibrium is reached [-]."""
     max_steps: int = 20000
-    """Equilibrium: the step cap (a phase that reaches it has not converged); dynamic: a cap on the
-    phase's steps too."""
+    """Equilibrium: the step cap (a phase that reaches it has not converged); safety: the cap of each
+    trial (a trial that reaches it has failed); dynamic: a cap on the phase's steps too."""
     damping: float = 0.8
-    """Equilibrium: the local damping coefficient α in [0, 1) [-]."""
+    """Equilibrium and safety: the local damping coefficient α in [0, 1) [-]."""
     at_rest: float = 0.0
     """Dynamic: end the phase once the kinetic energy has fallen below this fraction of its peak in
     the phase [-] (0: run the whole duration)."""
@@ -472,6 +474,10 @@ class Phase:
     ``"loads.top.traction" = [0, -2e4]``, ``"materials.soil.cohesion" = 5e3``."""
     reset_displacements: bool = False
     """Measure displacements from the positions at the start of this phase."""
+    factor_tolerance: float = 0.01
+    """Safety: the search stops when the factor of safety is bracketed to ± this [-]."""
+    factor_max: float = 10.0
+    """Safety: the largest trial factor [-]; a body that stands at it has a factor of safety above it."""
 
 
 @dataclass

@@ -373,6 +373,11 @@ def _check_phases(scene: Scene) -> None:
         check_range(f"{key}.max_steps", phase.max_steps, Interval(1.0, lo_closed=True, hi_closed=True))
         check_range(f"{key}.damping", phase.damping, Interval(0.0, 1.0, lo_closed=True))
         check_range(f"{key}.at_rest", phase.at_rest, Interval(0.0, 1.0, lo_closed=True))
+        check_range(f"{key}.factor_tolerance", phase.factor_tolerance, Interval(0.0, 0.5, hi_closed=True))
+        check_range(f"{key}.factor_max", phase.factor_max, Interval(1.0, lo_closed=True))
+        if phase.kind == "safety" and not scene.effects.plasticity:
+            raise SceneError(f"{key}.kind", '"safety" reduces strengths: it needs effects.plasticity = true and '
+                             'a viscoplastic material')  # fmt: skip
         for list_key in ("activate", "deactivate"):
             for j, name in enumerate(getattr(phase, list_key)):
                 if name not in known:
@@ -385,7 +390,11 @@ def _check_phases(scene: Scene) -> None:
         staged = phase_scene(scene, i)
         if not staged.bodies:
             raise SceneError(f"{key}.deactivate", "this phase leaves no body active: a phase needs particles")
-        if phase.kind == "equilibrium" and not any(staged.simulation.gravity) and not staged.loads:
+        if phase.kind == "safety" and not any(staged.materials[b.material].model == "viscoplastic"
+                                              for b in staged.bodies):
+            raise SceneError(f"{key}.kind", '"safety" reduces strengths, but no active body is of a viscoplastic '
+                             'material: it would do nothing')  # fmt: skip
+        if phase.kind in ("equilibrium", "safety") and not any(staged.simulation.gravity) and not staged.loads:
             raise SceneError(f"{key}.kind", f"an {phase.kind} phase needs gravity or a load to balance; this one "
                              "has neither, so it would do nothing")  # fmt: skip
         try:

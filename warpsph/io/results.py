@@ -104,7 +104,9 @@ class ResultsWriter:
 
     def write_phases(self, records: list[dict]) -> None:
         """Replace ``/phases``: one row per phase, columns ``name``, ``kind``, ``outcome`` (strings),
-        ``first_step``, ``last_step`` (int64), ``start_time``, ``end_time``, ``criterion`` (float64)."""
+        ``first_step``, ``last_step`` (int64), ``start_time``, ``end_time``, ``criterion`` (float64),
+        and a safety phase's trials as ``/phases/trials/<name>``, (T,4) float64 rows of factor,
+        converged (1 or 0), final unbalanced-force ratio and steps."""
         self._check_open()
         with _open(self.path, "r+") as f:
             if "phases" in f:
@@ -117,6 +119,10 @@ class ResultsWriter:
                 group.create_dataset(column, data=np.array([r[column] for r in records], dtype=np.int64))
             for column in ("start_time", "end_time", "criterion"):
                 group.create_dataset(column, data=np.array([r[column] for r in records], dtype=np.float64))
+            trials = group.create_group("trials")
+            for r in records:
+                if r.get("trials"):
+                    trials.create_dataset(r["name"], data=np.array(r["trials"], dtype=np.float64).reshape(-1, 4))
 
     def append_series(self, name: str, step: int, time: float, value: float) -> None:
         """Buffer one sample of scalar series ``name`` (time [s]); written at the next frame or close()."""
@@ -213,6 +219,12 @@ class Results:
             group = f["frames"][_frames(f)[i]]
             return {k: group[k][()] for k in group}
 
+    def frame_attrs(self, i: int) -> dict:
+        """The attributes of frame ``i``: time, step, phase and, for a safety trial's frame, factor and
+        converged."""
+        with self._open() as f:
+            return {k: _plain(v) for k, v in f["frames"][_frames(f)[i]].attrs.items()}
+
     def field(self, name: str) -> np.ndarray:
         """Field ``name`` stacked over all frames, shape (F, N, ...)."""
         with self._open() as f:
@@ -221,12 +233,17 @@ class Results:
     @property
     def phases(self) -> list[dict]:
         """The phases run, in order: dicts with name, kind, outcome, first_step, last_step, start_time,
-        end_time and criterion; [] for a run without phases."""
+        end_time, criterion and trials (a safety phase's (T,4) array of factor, converged, final
+        ratio and steps; (0,4) for other kinds); [] for a run without phases."""
         with self._open() as f:
             if "phases" not in f:
                 return []
             g = f["phases"]
-            return [{k: _plain(g[k][i]) for k in g} for i in range(len(g["name"]))]
+            trials = g["trials"] if "trials" in g else {}
+            rows = [{k: _plain(g[k][i]) for k in g if k != "trials"} for i in range(len(g["name"]))]
+            for row in rows:
+                row["trials"] = trials[row["name"]][()] if row["name"] in trials else np.zeros((0, 4))
+            return rows
 
     @property
     def frame_phases(self) -> np.ndarray:

@@ -1,0 +1,140 @@
+"""The factor of safety by strength reduction (a ``safety`` phase, docs/scenes.md, *Phases*).
+
+A vertical cut H = 2 m high in undrained clay (von Mises, c_u = 20 kPa, ρ = 2000 kg/m³) on 2 m of the
+same clay, brought to equilibrium under gravity, then searched for the factor F by which c_u can be
+divided before the cut no longer stands. Its critical height is γH_c/c_u = N with the classical
+limit-analysis bounds 2.83 ≤ N ≤ 3.83 (a lower-bound stress field and Chen's 1975 upper bound;
+numerical limit analyses place N near 3.78), so F = N c_u/(γH) lies in [1.44, 1.95].
+Measured: F = 1.957 ± 0.012 at Δx = 0.25 m (trials capped at 4000 steps), 1.951 ± 0.006 at 0.2 m
+(5000 steps); a trial just above F creeps with an unbalanced-force ratio that hovers at 1–3 times the
+tolerance while its displacement grows.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+
+import numpy as np
+import pytest
+
+import warpsph
+from warpsph import Body, Boundary, Material, Scene, SceneError, Simulation
+from warpsph.phases import FactorSearch, reduced_strength
+from warpsph.scene import Phase
+
+G = 9.81
+CUT = [(0, 0), (8, 0), (8, 4), (4, 4), (4, 2), (0, 2)]  # the cut's face at x = 4 m, 2 m high [m]
+CU, RHO, H = 20e3, 2000.0, 2.0
+BOUNDS = (2.83 * CU / (RHO * G * H), 3.83 * CU / (RHO * G * H))
+
+
+def vertical_cut(dx: float, phases: list[Phase]) -> Scene:
+    clay = Material("clay", model="viscoplastic", density=RHO, youngs_modulus=2e7, poisson_ratio=0.3,
+                    yield_function="von_mises", cohesion=CU)  # fmt: skip
+    scene = Scene(name="cut", simulation=Simulation(dim=2, dx=dx, end_time=1.0, gravity=(0.0, -G, 0.0)),
+                  materials={"clay": clay}, bodies=[Body("ground", "clay", shape="polygon", vertices=CUT)],
+                  boundaries=[Boundary("base", "fixed", "y", 0.0, "min"), Boundary("left", "slip", "x", 0.0, "min"),
+                              Boundary("right", "slip", "x", 8.0, "max")],
+                  phases=phases)  # fmt: skip
+    scene.effects = dataclasses.replace(scene.effects, plasticity=True)
+    scene.output.usd = scene.output.xdmf = False
+    scene.output.frame_interval = 1e3
+    scene.output.fields = ["velocity", "stress", "displacement"]
+    return scene.validate()
+
+
+def cut_phases(dx_steps: int, factor_tolerance: float) -> list[Phase]:
+    return [Phase("initial", kind="k0"), Phase("gravity", kind="equilibrium"),
+            Phase("safety", kind="safety", max_steps=dx_steps, factor_tolerance=factor_tolerance)]  # fmt: skip
+
+
+def check_cut(out, tolerance: float) -> float:
+    results = warpsph.load_results(out / "results.h5")
+    phase = results.phases[-1]
+    trials = phase["trials"]
+    fos = phase["criterion"]
+    stood, failed = trials[trials[:, 1] == 1, 0], trials[trials[:, 1] == 0, 0]
+    print(f"\nfactor of safety {fos:.4f} ± {tolerance}, bounds [{BOUNDS[0]:.3f}, {BOUNDS[1]:.3f}]; trials:\n{trials}")
+    assert phase["outcome"] == "converged"
+    assert stood.max() < fos < failed.min() and failed.min() - stood.max() <= 2 * tolerance + 1e-12
+    assert BOUNDS[0] <= stood.max() and failed.min() - BOUNDS[1] <= 2 * tolerance  # the bracket meets the bounds
+    # each trial's last state is a frame; the first trial that failed shows the mechanism: the soil
+    # behind the face moves much more than in the strongest trial that stood, and on the face's side
+    factors = [results.frame_attrs(k).get("factor") for k in range(len(results.times))]
+    frames = {f: k for k, f in enumerate(factors) if f is not None}
+    assert set(frames) == set(trials[:, 0])
+    first_failed = trials[trials[:, 1] == 0, 0][0]
+    moved = {f: np.linalg.norm(results.frame(frames[f])["displacement"], axis=1) for f in (first_failed, stood.max())}
+    print(f"largest displacement: {moved[first_failed].max():.4f} m at F = {first_failed}, "
+          f"{moved[stood.max()].max():.4f} m at F = {stood.max()}")
+    assert moved[first_failed].max() > 5.0 * moved[stood.max()].max()
+    position = results.frame(frames[first_failed])["position"]
+    assert 3.0 < position[np.argmax(moved[first_failed]), 0] < 4.5  # at the face
+    return fos
+
+
+@pytest.fixture(scope="module")
+def cut(tmp_path_factory):
+    out = tmp_path_factory.mktemp("cut")
+    summary = warpsph.run_scene(vertical_cut(0.25, cut_phases(4000, 0.02)), out, device="cpu")
+    return summary, out
+
+
+def test_vertical_cut_factor_of_safety_lies_within_the_limit_analysis_bounds(cut):
+    summary, out = cut
+    assert summary.status == "finished"
+    check_cut(out, 0.02)
+
+
+@pytest.mark.slow
+def test_vertical_cut_factor_of_safety_refined(tmp_path):
+    warpsph.run_scene(vertical_cut(0.1, cut_phases(10000, 0.01)), tmp_path, device="cpu")
+    check_cut(tmp_path, 0.01)
+
+
+def test_strength_reduction_divides_c_and_tan_phi():
+    soil = Material("soil", model="viscoplastic", cohesion=10e3, friction_angle=30.0, dilatancy_angle=10.0,
+                    residual_cohesion=2e3, hardening_modulus=-1e4)  # fmt: skip
+    reduced = reduced_strength(soil, 2.0)
+    assert reduced.cohesion == 5e3 and reduced.residual_cohesion == 1e3 and reduced.hardening_modulus == -5e3
+    assert np.tan(np.radians(reduced.friction_angle)) == pytest.approx(np.tan(np.radians(30.0)) / 2.0)
+    assert np.tan(np.radians(reduced.dilatancy_angle)) == pytest.approx(np.tan(np.radians(10.0)) / 2.0)
+
+
+@pytest.mark.parametrize("fos", [0.3, 1.234, 4.0, 12.0])
+def test_factor_search_brackets_to_its_tolerance(fos):
+    search = FactorSearch(0.01, 10.0)
+    tried = []
+    while search.factor is not None:
+        tried.append(search.factor)
+        search.record(search.factor < fos)
+    if fos > 10.0:
+        assert not search.bracketed and search.result == 10.0
+        return
+    assert search.bracketed and abs(search.result - fos) <= 0.01 and len(tried) < 20
+
+
+@pytest.mark.parametrize("change, key, words", [
+    ({"factor_tolerance": 0.0}, "phases.safety.factor_tolerance", "must be"),
+    ({"factor_max": 0.5}, "phases.safety.factor_max", "must be"),
+])  # fmt: skip
+def test_bad_safety_phases_name_their_key(change, key, words):
+    phases = cut_phases(100, 0.01)
+    phases[-1] = dataclasses.replace(phases[-1], **change)
+    with pytest.raises(SceneError) as err:
+        vertical_cut(0.5, phases)
+    assert str(err.value).startswith(key) and words in str(err.value) and "\n" not in str(err.value)
+
+
+def test_safety_phase_needs_plasticity():
+    scene = vertical_cut(0.5, cut_phases(100, 0.01))
+    scene.effects = dataclasses.replace(scene.effects, plasticity=False)
+    with pytest.raises(SceneError, match=r"^phases\.safety\.kind: .*needs effects\.plasticity"):
+        scene.validate()
+
+
+def test_safety_phase_on_elastic_bodies_would_do_nothing():
+    scene = vertical_cut(0.5, cut_phases(100, 0.01))
+    scene.materials["clay"] = dataclasses.replace(scene.materials["clay"], model="elastic")
+    with pytest.raises(SceneError, match=r"^phases\.safety\.kind: .*would do nothing"):
+        scene.validate()
