@@ -18,7 +18,7 @@ import numpy as np
 import pytest
 
 import warpsph
-from warpsph import Body, Boundary, Material, Scene, SceneError, Simulation
+from warpsph import Body, Boundary, Material, Probe, Region, Scene, SceneError, Simulation
 from warpsph.phases import FactorSearch, reduced_strength
 from warpsph.scene import Phase
 
@@ -138,3 +138,51 @@ def test_safety_phase_on_elastic_bodies_would_do_nothing():
     scene.materials["clay"] = dataclasses.replace(scene.materials["clay"], model="elastic")
     with pytest.raises(SceneError, match=r"^phases\.safety\.kind: .*would do nothing"):
         scene.validate()
+
+
+def test_cut_weakened_below_its_factor_of_safety_fails_and_comes_to_rest(tmp_path):
+    """Equilibrium at c_u = 20 kPa, then a dynamic phase with c_u = 8 kPa (F = 0.8 of the weakened cut)
+    and large deformation: the face collapses onto the floor in front of it and the phase ends at rest
+    (kinetic energy below 1 % of its peak); the probe ``front`` is the leftmost particle that started
+    behind the face."""
+    scene = vertical_cut(0.25, [Phase("initial", kind="k0"), Phase("gravity", kind="equilibrium"),
+                                Phase("collapse", kind="dynamic", duration=8.0, at_rest=0.01,
+                                      reset_displacements=True,
+                                      changes={"materials.clay.cohesion": 8e3, "simulation.large_deformation": True,
+                                               "simulation.particle_velocity": "own",
+                                               "simulation.particle_shifting": 5.0,
+                                               "simulation.artificial_viscosity": 1.0})])  # fmt: skip
+    scene.probes = [Probe("front", kind="minimum", field="position_x", region=Region(min=(4.0, 2.0, 0.0),
+                                                                                     max=(8.0, 4.0, 0.0)))]
+    summary = warpsph.run_scene(scene.validate(), tmp_path, device="cpu")
+    results = warpsph.load_results(tmp_path / "results.h5")
+    phases = results.phases
+    t, front = results.series("front")
+    equilibrium = (t >= phases[1]["start_time"]) & (t <= phases[1]["end_time"])
+    collapse = t >= phases[2]["start_time"]
+    print(f"\nat rest after {phases[2]['end_time'] - phases[2]['start_time']:.2f} s; front {front[-1]:.3f} m "
+          f"(face at 4 m); kinetic energy / peak {phases[2]['criterion']:.3g}")
+    assert summary.status == "finished" and phases[2]["outcome"] == "at rest"
+    assert np.all(front[equilibrium] > 4.0 - 0.01)
+    assert front[-1] < 3.0 and np.all(np.diff(front[collapse]) < 1e-3)  # ran out at least 1 m, never back
+
+
+def test_stop_and_resume_inside_a_safety_phase_is_bit_identical(tmp_path):
+    """``--end-time`` inside a trial, then ``--resume``: the checkpoint of the last finished trial
+    restarts the search, which ends with the same trials and the same final state."""
+    scene = vertical_cut(0.5, cut_phases(600, 0.1) + [Phase("after", kind="dynamic", duration=0.05)])
+    reference = tmp_path / "reference"
+    warpsph.run_scene(scene, reference, device="cpu")
+    ref = warpsph.load_results(reference / "results.h5")
+    safety = ref.phases[2]
+    assert safety["outcome"] == "converged" and len(safety["trials"]) >= 3
+    middle = 0.5 * (safety["start_time"] + safety["end_time"])
+    resumed = tmp_path / "resumed"
+    first = warpsph.run_scene(scene, resumed, device="cpu", end_time=middle)
+    assert first.status == "stopped"
+    warpsph.run_scene(scene, resumed, device="cpu", resume=True)
+    res = warpsph.load_results(resumed / "results.h5")
+    assert [p["outcome"] for p in res.phases] == [p["outcome"] for p in ref.phases]
+    assert np.array_equal(res.phases[2]["trials"], safety["trials"]) and res.phases[2]["criterion"] == safety["criterion"]
+    for key in ("position", "velocity", "stress", "plastic_strain"):
+        assert np.array_equal(res.frame(-1)[key], ref.frame(-1)[key]), key

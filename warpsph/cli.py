@@ -2,7 +2,8 @@
 
 Exit codes: 0 success, 1 the run went unstable (its output up to then is kept), 2 a bad scene or
 bad arguments (one line on stderr, never a traceback), 3 an equilibrium phase did not converge
-within its step cap (its output is kept; the phases after it were not run).
+within its step cap, or a safety phase found no bracket of its factor of safety (its output is kept;
+the phases after it were not run).
 """
 
 from __future__ import annotations
@@ -101,6 +102,8 @@ def _run(args) -> int:
         projection = run.solver.projection
         solve = f", {projection.settings.solver} {projection.iterations[-1]} it" if projection else ""
         phase = f"phase {run.phase.name} ({run.phase.kind}), " if run.staged else ""
+        if run.phase.kind == "safety" and "search" in run.loop:
+            phase += f"trial F = {run.loop['search']['factor']:.4g}, "
         ratio = f", ratio {run.loop['ratio']:.3g}" if "ratio" in run.loop else ""
         bar.set_postfix_str(f"{phase}step {step}{solve}{ratio}", refresh=False)
         bar.update((min(t, run.end_time) if total else t) - bar.n)
@@ -109,13 +112,21 @@ def _run(args) -> int:
         s = run.run(progress=progress)
     finally:
         bar.close()
-    for p in s.phases if run.staged else ():
-        criterion = {"equilibrium": "unbalanced-force ratio", "dynamic": "kinetic energy / peak"}.get(p["kind"])
+    for i, p in enumerate(s.phases if run.staged else ()):
+        criterion = {"equilibrium": "unbalanced-force ratio", "safety": "factor of safety",
+                     "dynamic": "kinetic energy / peak"}.get(p["kind"])  # fmt: skip
         reached = f", {criterion} {p['criterion']:.4g}" if criterion and p["criterion"] == p["criterion"] else ""
+        if p["kind"] == "safety" and p["outcome"] == "converged":
+            reached += f" ± {run.phases[i].factor_tolerance:g}"
         print(f"phase {p['name']} ({p['kind']}): {p['outcome']} after {p['steps']} steps{reached}")
+        for factor, stood, ratio, steps in p.get("trials", []):
+            print(f"  trial F = {factor:.4g}: {'stands' if stood else 'fails'} (ratio {ratio:.3g} after {steps} steps)")
     print(f"done: {s.steps} steps to t = {s.final_time:.6g} s in {s.wall_seconds:.2f} s "
           f"({s.particle_steps_per_second:.3g} particle-steps/s), compile {s.compile_seconds:.2f} s, "
           f"{s.frames} frames")  # fmt: skip
+    if s.status == "not converged" and run.phase.kind == "safety":
+        return _fail(EXIT_NOT_CONVERGED, f"phase {s.phases[-1]['name']} found no factor of safety between 0.05 and "
+                     f"factor_max = {run.phase.factor_max:g}; the phases after it were not run (results in {out})")
     if s.status == "not converged":
         return _fail(EXIT_NOT_CONVERGED, f"phase {s.phases[-1]['name']} did not reach equilibrium within its "
                      f"max_steps = {run.phase.max_steps}; the phases after it were not run (results in {out})")
