@@ -5,11 +5,12 @@ sides are on rollers and the rest is traction free; the stress is projected onto
 points. An independent check of the SPH stress fields, used only by the tests.
 """
 
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
 
 import numpy as np
 from scipy.spatial import Delaunay
-from skfem import Basis, ElementTriP1, ElementTriP2, ElementVector, LinearForm, MeshTri, asm, condense, solve
+from skfem import (Basis, ElementTriP1, ElementTriP2, ElementVector, FacetBasis, LinearForm, MeshTri, asm, condense,
+                   solve)
 from skfem.helpers import sym_grad
 from skfem.models.elasticity import lame_parameters, linear_elasticity, linear_stress
 
@@ -105,3 +106,45 @@ def elastic_gravity_state(
         "base_reaction_y": float(reaction[base.all("u^2")].sum()),
         "weight": density * gravity * abs(_signed_area(poly)),
     }
+
+
+def elastic_excavation_displacement(
+    vertices: Sequence[Sequence[float]],
+    *,
+    youngs_modulus: float,
+    poisson_ratio: float,
+    initial_stress: Callable[[np.ndarray, np.ndarray], tuple[np.ndarray, np.ndarray, np.ndarray]],
+    excavated: Callable[[np.ndarray, np.ndarray], np.ndarray],
+    element_size: float,
+    points: np.ndarray,
+) -> np.ndarray:
+    """Displacement (M, 2) [m] at ``points`` (M, 2) caused by excavating a linear-elastic body in plane strain.
+
+    ``vertices`` is the polygon left after the excavation, in equilibrium with gravity before it under the
+    ``initial_stress(x, y)`` → (σ_xx, σ_yy, σ_xy) [Pa], tension positive. Excavating frees the boundary facets where
+    ``excavated(x, y)`` holds: the displacement is that of the body loaded there by the traction −σ₀n it loses,
+    without body force (the initial state balances gravity). Base fixed and vertical sides on rollers, as above.
+    """
+    poly = np.asarray(vertices, dtype=float)
+    (x0, y0), (x1, _) = poly.min(axis=0), poly.max(axis=0)
+    mesh = polygon_mesh(poly, element_size)
+    element = ElementVector(ElementTriP2())
+    basis = Basis(mesh, element)
+    lam, mu = lame_parameters(youngs_modulus, poisson_ratio)
+    stiffness = asm(linear_elasticity(lam, mu), basis)
+    facets = mesh.facets_satisfying(lambda x: excavated(x[0], x[1]), boundaries_only=True)
+    surface = FacetBasis(mesh, element, facets=facets)
+
+    @LinearForm
+    def released(v, w):
+        sxx, syy, sxy = initial_stress(w.x[0], w.x[1])
+        n = w.n
+        return -((sxx * n[0] + sxy * n[1]) * v[0] + (sxy * n[0] + syy * n[1]) * v[1])
+
+    load = asm(released, surface)
+    base = basis.get_dofs(lambda x: np.isclose(x[1], y0))
+    sides = basis.get_dofs(lambda x: np.isclose(x[0], x0) | np.isclose(x[0], x1))
+    u = solve(*condense(stiffness, load, D=np.union1d(base.all(), sides.all("u^1"))))
+    at = np.asarray(points, dtype=float).reshape(-1, 2).T
+    return np.column_stack([part.probes(at) @ u[dofs] for part, dofs in zip(basis.split_bases(),
+                                                                          basis.split_indices())])  # fmt: skip
