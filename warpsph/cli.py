@@ -119,8 +119,9 @@ def _run(args) -> int:
         if p["kind"] == "safety" and p["outcome"] == "converged":
             reached += f" ± {run.phases[i].factor_tolerance:g}"
         print(f"phase {p['name']} ({p['kind']}): {p['outcome']} after {p['steps']} steps{reached}")
-        for factor, stood, ratio, steps in p.get("trials", []):
-            print(f"  trial F = {factor:.4g}: {'stands' if stood else 'fails'} (ratio {ratio:.3g} after {steps} steps)")
+        for factor, stood, ratio, steps, moved in p.get("trials", []):
+            print(f"  trial F = {factor:.4g}: {'stands' if stood else 'fails'} (ratio {ratio:.3g} after {steps} steps, "
+                  f"largest displacement {moved:.3g} m)")
     print(f"done: {s.steps} steps to t = {s.final_time:.6g} s in {s.wall_seconds:.2f} s "
           f"({s.particle_steps_per_second:.3g} particle-steps/s), compile {s.compile_seconds:.2f} s, "
           f"{s.frames} frames")  # fmt: skip

@@ -38,7 +38,8 @@ class PhaseRecord:
     """The criterion reached: the final unbalanced-force ratio (equilibrium), the factor of safety
     (safety) or the final over peak kinetic energy (dynamic with ``at_rest``)."""
     trials: list = field(default_factory=list)
-    """Safety: one [factor, converged (1 or 0), final unbalanced-force ratio, steps] per trial."""
+    """Safety: one [factor, converged (1 or 0), final unbalanced-force ratio, steps, largest displacement
+    [m]] per trial."""
 
 
 def reduced_strength(material: Material, factor: float) -> Material:

@@ -31,7 +31,7 @@ from warpsph.phase_state import ParticleIds, carry_state
 from warpsph.phases import AT_REST, CONVERGED, FINISHED, NOT_CONVERGED, STOPPED, PhaseRecord, default_phases
 from warpsph.phases import FactorSearch, phase_scene, reduced_strength
 from warpsph.probes import Probes
-from warpsph.scene import Phase, Scene
+from warpsph.scene import FAILURE_DISPLACEMENT, Phase, Scene
 from warpsph.solver import Solver
 from warpsph.stages.guard import Guard
 
@@ -435,10 +435,13 @@ class Run:
                 total += float(np.linalg.norm(ld.force)) * abs(ld.time_function(self.phase_time))
         return total
 
-    def _equilibrate(self, progress, first: int, output: bool = True) -> tuple[bool, float]:
+    def _equilibrate(self, progress, first: int, output: bool = True,
+                     start: tuple[np.ndarray, float] | None = None) -> tuple[bool, float]:
         """Damped steps from step ``first`` until the unbalanced-force ratio falls below the phase's
         tolerance (True) or its step cap is reached (False); also the last ratio. ``output``: write
-        frames and checkpoints at their cadence (a safety trial writes its last frame only)."""
+        frames and checkpoints at their cadence (a safety trial writes its last frame only).
+        ``start`` = (positions (N,3) [m], limit [m]): also False once a particle has moved farther
+        than the limit from its start position (a safety trial's failure displacement)."""
         phase = self.phase
         frame_every, ck_every = self._cadence(True)
         ratio = self.loop.get("ratio", math.inf)
@@ -455,6 +458,8 @@ class Run:
                 self.results.append_series("kinetic_energy", self.step_index, self.time, energy)
                 converged = ratio < phase.tolerance
                 capped = not converged and k >= phase.max_steps
+                if start is not None and not converged:
+                    capped = capped or largest_displacement(self.state.particle_q, start[0]) > start[1]
             stopped = stop is not None and self.step_index >= stop and k % CHECK_EVERY == 0
             if output:
                 self._output(converged or capped or stopped, frame_every, ck_every)
@@ -482,14 +487,17 @@ class Run:
         start = {name: arr.numpy().copy() for name, arr in self.state.arrays().items()}
         materials = list(self.phase_scene.materials.values())
         spec, device = self.model.spec, self.model.device
+        positions = start["particle_q"][: self.model.particle_count]
+        limit = phase.failure_displacement or FAILURE_DISPLACEMENT * self._height(positions)
         while search.factor is not None:
             factor = search.factor
             self.model.material_plasticity = plastic_materials(spec, [reduced_strength(m, factor) for m in materials],
                                                                device)  # fmt: skip
             first = self.step_index
             self.loop.pop("ratio", None)
-            converged, ratio = self._equilibrate(progress, first, output=False)
-            record.trials.append([factor, int(converged), ratio, self.step_index - first])
+            converged, ratio = self._equilibrate(progress, first, output=False, start=(positions, limit))
+            record.trials.append([factor, int(converged), ratio, self.step_index - first,
+                                  largest_displacement(self.state.particle_q, positions)])  # fmt: skip
             self._write_frame(factor=factor, converged=int(converged))
             search.record(converged)
             for name, arr in self.state.arrays().items():
@@ -499,6 +507,14 @@ class Run:
         self.model.material_plasticity = plastic_materials(spec, materials, device)
         record.criterion = search.result
         return CONVERGED if search.bracketed else NOT_CONVERGED
+
+    def _height(self, positions: np.ndarray) -> float:
+        """The bodies' extent along gravity [m] (their largest extent without gravity)."""
+        g = np.asarray(self.model.gravity, dtype=float)
+        if np.any(g):
+            along = positions @ (g / np.linalg.norm(g))
+            return float(along.max() - along.min())
+        return float(np.max(positions.max(axis=0) - positions.min(axis=0)))
 
     # -- the loop ---------------------------------------------------------------------------------
     def run(self, progress=None) -> RunSummary:
@@ -556,6 +572,12 @@ class Run:
             self.results.close()
             self._write_record(status, message)
         return self.summary
+
+
+def largest_displacement(positions: wp.array, start: np.ndarray) -> float:
+    """The largest distance [m] of the owned particles' ``positions`` from their ``start`` (N,3)."""
+    moved = positions.numpy()[: len(start)] - start
+    return float(np.sqrt(np.max(np.sum(moved * moved, axis=1))))
 
 
 class _Stopped(Exception):

@@ -434,6 +434,11 @@ class Output:
 
 
 PHASE_KINDS = ("k0", "equilibrium", "safety", "dynamic")
+FAILURE_DISPLACEMENT = 0.02
+"""A safety trial's default failure displacement as a fraction of the bodies' height [-]. Measured on
+Griffiths & Lane's slope (12 m of soil), the largest displacement of trials that come to rest: at
+Δx = 1 m 0.10, 0.18 and 0.22 m at F = 1.375, 1.406 and 1.422, then 0.47 m at 1.4375 and 0.78 m at
+1.5; at Δx = 0.5 m 0.02 m at 1.375 and 0.35 m at 1.4375 (docs/scenes.md, *Phases*)."""
 """Kinds of :class:`Phase` (docs/scenes.md, *Phases*)."""
 
 
@@ -478,6 +483,10 @@ class Phase:
     """Safety: the search stops when the factor of safety is bracketed to ± this [-]."""
     factor_max: float = 10.0
     """Safety: the largest trial factor [-]; a body that stands at it has a factor of safety above it."""
+    failure_displacement: float = 0.0
+    """Safety: a trial also fails once a particle has moved more than this [m] from the trial's start
+    (a mechanism has formed); 0: ``FAILURE_DISPLACEMENT`` times the active bodies' height (their
+    extent along gravity, or their largest extent without it)."""
 
 
 @dataclass

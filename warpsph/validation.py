@@ -375,6 +375,7 @@ def _check_phases(scene: Scene) -> None:
         check_range(f"{key}.at_rest", phase.at_rest, Interval(0.0, 1.0, lo_closed=True))
         check_range(f"{key}.factor_tolerance", phase.factor_tolerance, Interval(0.0, 0.5, hi_closed=True))
         check_range(f"{key}.factor_max", phase.factor_max, Interval(1.0, lo_closed=True))
+        check_range(f"{key}.failure_displacement", phase.failure_displacement, NON_NEGATIVE)
         if phase.kind == "safety" and not scene.effects.plasticity:
             raise SceneError(f"{key}.kind", '"safety" reduces strengths: it needs effects.plasticity = true and '
                              'a viscoplastic material')  # fmt: skip

@@ -105,8 +105,8 @@ class ResultsWriter:
     def write_phases(self, records: list[dict]) -> None:
         """Replace ``/phases``: one row per phase, columns ``name``, ``kind``, ``outcome`` (strings),
         ``first_step``, ``last_step`` (int64), ``start_time``, ``end_time``, ``criterion`` (float64),
-        and a safety phase's trials as ``/phases/trials/<name>``, (T,4) float64 rows of factor,
-        converged (1 or 0), final unbalanced-force ratio and steps."""
+        and a safety phase's trials as ``/phases/trials/<name>``, (T,5) float64 rows of factor,
+        converged (1 or 0), final unbalanced-force ratio, steps and the largest displacement [m]."""
         self._check_open()
         with _open(self.path, "r+") as f:
             if "phases" in f:
@@ -122,7 +122,7 @@ class ResultsWriter:
             trials = group.create_group("trials")
             for r in records:
                 if r.get("trials"):
-                    trials.create_dataset(r["name"], data=np.array(r["trials"], dtype=np.float64).reshape(-1, 4))
+                    trials.create_dataset(r["name"], data=np.array(r["trials"], dtype=np.float64).reshape(-1, 5))
 
     def append_series(self, name: str, step: int, time: float, value: float) -> None:
         """Buffer one sample of scalar series ``name`` (time [s]); written at the next frame or close()."""
@@ -233,7 +233,7 @@ class Results:
     @property
     def phases(self) -> list[dict]:
         """The phases run, in order: dicts with name, kind, outcome, first_step, last_step, start_time,
-        end_time, criterion and trials (a safety phase's (T,4) array of factor, converged, final
+        end_time, criterion and trials (a safety phase's (T,5) array of factor, converged, final
         ratio and steps; (0,4) for other kinds); [] for a run without phases."""
         with self._open() as f:
             if "phases" not in f:
@@ -242,7 +242,7 @@ class Results:
             trials = g["trials"] if "trials" in g else {}
             rows = [{k: _plain(g[k][i]) for k in g if k != "trials"} for i in range(len(g["name"]))]
             for row in rows:
-                row["trials"] = trials[row["name"]][()] if row["name"] in trials else np.zeros((0, 4))
+                row["trials"] = trials[row["name"]][()] if row["name"] in trials else np.zeros((0, 5))
             return rows
 
     @property
