@@ -14,7 +14,7 @@ import numpy as np
 import warp as wp
 
 from warpsph.fields import voigt_to_tensor
-from warpsph.initial_stress import geostatic_stress
+from warpsph.initial_stress import geostatic_stress, geostatic_unit_weight
 from warpsph.lattice import fill_body, fill_cells
 from warpsph.environment import default_device
 from warpsph.model import PLANE_FIXED, PLANE_SLIP, PLANE_TRACTION, PLANE_VELOCITY, Model, State
@@ -96,7 +96,7 @@ def _geostatic(material, points: np.ndarray, gravity, dx: float, pore_water: boo
     """Geostatic effective stress (…,3,3) [Pa] of one body's ``points``: σ′_yy = −(ρ − ρ_w) g depth below
     the body's highest particle in each one's column (ρ_w only with pore water: the buoyant weight),
     σ′_xx = σ′_zz = K0 σ′_yy."""
-    weight = (material.density - (material.water_density if pore_water else 0.0)) * (-gravity[1])
+    weight = geostatic_unit_weight(material, gravity, pore_water)
     n = len(points)
     return geostatic_stress(points, np.full(n, weight), np.full(n, material.earth_pressure_at_rest), dx)
 

@@ -42,6 +42,12 @@ def overburden(points: np.ndarray, unit_weight: np.ndarray, dx: float) -> np.nda
     return out
 
 
+def geostatic_unit_weight(material, gravity, pore_water: bool) -> float:
+    """The unit weight γ′ [N/m³] that loads ``material``'s skeleton under ``gravity`` (3,) [m/s²]:
+    the buoyant (ρ − ρ_w)(−g_y) with pore water, ρ(−g_y) without."""
+    return (material.density - (material.water_density if pore_water else 0.0)) * (-gravity[1])
+
+
 def geostatic_stress(points: np.ndarray, unit_weight: np.ndarray, k0: np.ndarray, dx: float) -> np.ndarray:
     """(N,3,3) geostatic effective stress [Pa]: σ′_yy = :func:`overburden` of the (buoyant) unit weights
     ``unit_weight`` (N,) [N/m³], σ′_xx = σ′_zz = K0 σ′_yy with ``k0`` (N,) per particle."""

@@ -25,7 +25,7 @@ from warpsph.builder import build, plastic_materials
 from warpsph.errors import InputError, SimulationError
 from warpsph.fields import tensor_to_voigt
 from warpsph.io import ResultsWriter, UsdParticleCache, load_checkpoint, save_checkpoint, write_xdmf
-from warpsph.initial_stress import geostatic_stress
+from warpsph.initial_stress import geostatic_stress, geostatic_unit_weight
 from warpsph.model import PLANE_TRACTION, Model, State
 from warpsph.phase_state import ParticleIds, carry_state
 from warpsph.phases import AT_REST, CONVERGED, FINISHED, NOT_CONVERGED, STOPPED, PhaseRecord, default_phases
@@ -185,6 +185,7 @@ class Run:
             self.origin = host_fields(self.model, self.state)["position"]
         self.probes.displacement_origin = self.origin
         self.loop = {}
+        self._load_scale = None  # the phase's constant parts of the applied force (_applied_force)
         self.phase_start_step, self.phase_start_time = self.step_index, now
         self.records.append(PhaseRecord(phase.name, phase.kind, self.step_index, self.phase_start_time))
 
@@ -194,8 +195,8 @@ class Run:
         m, scene = self.model, self.phase_scene
         mats = list(scene.materials.values())
         material = m.particle_material.numpy()[: m.particle_count]
-        water = np.array([mt.water_density if m.pore is not None else 0.0 for mt in mats])
-        unit_weight = (np.array([mt.density for mt in mats]) - water)[material] * -scene.simulation.gravity[1]
+        gravity, pore_water = scene.simulation.gravity, m.pore is not None
+        unit_weight = np.array([geostatic_unit_weight(mt, gravity, pore_water) for mt in mats])[material]
         k0 = np.array([mt.earth_pressure_at_rest for mt in mats])[material]
         stress = self.state.particle_stress.numpy()
         stress[: m.particle_count] = geostatic_stress(m.particle_x0, unit_weight, k0, m.dx)
@@ -422,18 +423,25 @@ class Run:
     def _applied_force(self) -> float:
         """Σ m‖g‖ over the particles plus the loads' resultants at the phase's time [N/m or N]: the
         scale of the unbalanced-force ratio (docs/scenes.md, *Phases*)."""
+        if self._load_scale is None:
+            self._load_scale = self._applied_force_parts()
+        total, loads = self._load_scale
+        for resultant, time_function in loads:
+            total += resultant * abs(time_function(self.phase_time))
+        return total
+
+    def _applied_force_parts(self) -> tuple[float, list]:
+        """What :meth:`_applied_force` needs that a phase does not change: Σ m‖g‖, and each traction
+        plane's and force load's full resultant with its time function."""
         m = self.model
-        total = float(np.sum(m.particle_mass.numpy()[: m.particle_count])) * float(np.linalg.norm(m.gravity))
+        weight = float(np.sum(m.particle_mass.numpy()[: m.particle_count])) * float(np.linalg.norm(m.gravity))
         counts = np.bincount(m.constraint_planes.numpy().reshape(-1, 3).ravel() + 1, minlength=m.plane_count + 1)
         kinds, vectors = m.plane_kind.numpy(), m.plane_vector.numpy()
-        for p in range(m.plane_count):
-            if kinds[p] == PLANE_TRACTION:
-                area = counts[p + 1] * m.dx ** (m.spec.dim - 1)
-                total += area * float(np.linalg.norm(vectors[p])) * abs(m.plane_functions[p](self.phase_time))
-        for ld in self.phase_scene.loads:
-            if ld.kind == "force":
-                total += float(np.linalg.norm(ld.force)) * abs(ld.time_function(self.phase_time))
-        return total
+        loads = [(counts[p + 1] * m.dx ** (m.spec.dim - 1) * float(np.linalg.norm(vectors[p])), m.plane_functions[p])
+                 for p in range(m.plane_count) if kinds[p] == PLANE_TRACTION]  # fmt: skip
+        loads += [(float(np.linalg.norm(ld.force)), ld.time_function) for ld in self.phase_scene.loads
+                  if ld.kind == "force"]  # fmt: skip
+        return weight, loads
 
     def _equilibrate(self, progress, first: int, output: bool = True,
                      start: tuple[np.ndarray, float] | None = None) -> tuple[bool, float]:
@@ -478,7 +486,8 @@ class Run:
     def _run_safety(self, progress) -> str:
         """Strength reduction (:class:`~warpsph.phases.FactorSearch`): each trial an equilibrium from
         the phase's start state with c, tan φ and tan ψ divided by the trial factor F; a trial stands
-        when it converges within the phase's step cap. Each trial's last state is written as a frame
+        when it converges within the phase's step cap, and fails at the cap or once a particle has
+        moved farther than the failure displacement. Each trial's last state is written as a frame
         (attributes ``factor`` and ``converged``), the state is then put back to the phase's start and
         checkpointed, so the next phase starts from the unreduced state."""
         phase, record = self.phase, self.records[-1]
