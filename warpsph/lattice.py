@@ -27,6 +27,12 @@ def used_axes(dim: int) -> tuple[int, ...]:
     return {1: (1,), 2: (0, 1), 3: (0, 1, 2)}[dim]
 
 
+def lattice_keys(points: np.ndarray, dx: float) -> np.ndarray:
+    """(N,3) int64 keys of the (N,3) ``points`` on the half-spacing lattice: equal for the same lattice
+    point or cell centre, so bodies' points are merged and particles identified across phases by them."""
+    return np.round(np.asarray(points, dtype=float) / dx * 2.0).astype(np.int64)
+
+
 def fill_body(body: Body, dx: float, dim: int) -> np.ndarray:
     """Lattice points inside ``body``: (N, 3) float64, sorted by (z, y, x)."""
     return _fill(body, dx, dim, offset=0.0, shrink=0.0)

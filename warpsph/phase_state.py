@@ -12,15 +12,14 @@ from __future__ import annotations
 import numpy as np
 
 from warpsph.builder import merge_unique
-from warpsph.lattice import fill_body, fill_cells
+from warpsph.lattice import fill_body, fill_cells, lattice_keys
 from warpsph.model import Model, State
 from warpsph.scene import Scene
 
 
 def lattice_rows(reference: np.ndarray, points: np.ndarray, dx: float) -> np.ndarray:
     """For each of the (M,3) lattice ``points``, its row in the (N,3) ``reference`` points, or −1."""
-    keys_ref = np.round(np.asarray(reference, dtype=float) / dx * 2.0).astype(np.int64)
-    keys = np.round(np.asarray(points, dtype=float) / dx * 2.0).astype(np.int64)
+    keys_ref, keys = lattice_keys(reference, dx), lattice_keys(points, dx)
     if not len(keys):
         return np.zeros(0, dtype=np.int64)
     both, inverse = np.unique(np.concatenate([keys_ref, keys]), axis=0, return_inverse=True)
