@@ -74,3 +74,25 @@ def test_only_an_equilibrium_phase_compiles_local_damping(scenes_dir):
     with record_launches() as launched:
         Solver(model).step(state, scratch, 0.0, scene.time_step)
     assert not any("damping" in k for k in launched)
+
+
+def test_a_flow_phase_runs_the_groundwater_kernels_only(scenes_dir, tmp_path):
+    """A flow phase launches no Taylor step (the skeleton is fixed) and a dynamic phase of the same
+    saturated scene no groundwater kernel."""
+    from warpsph.runner import Run
+    from warpsph.scene import Phase
+
+    scene = load_scene(scenes_dir / "terzaghi.toml")
+    scene.output = dataclasses.replace(scene.output, usd=False, xdmf=False)
+    scene.phases = [Phase(name="flow", kind="flow", duration=1.0, frames=1),
+                    Phase(name="dynamic", kind="dynamic", duration=2 * scene.time_step)]  # fmt: skip
+    run = Run(scene.validate(), tmp_path)
+    with record_launches() as launched:
+        run._run_flow(None)
+    assert any("assemble_flow" in k for k in launched) and any("retention_fields" in k for k in launched)
+    assert not [k for k in launched if "step" in k.lower() or "projection" in k.lower()]
+    run._enter_phase(1, (run.model, run.state, run.origin))
+    with record_launches() as launched:
+        run._run_dynamic(None)
+    assert any("half_step" in k for k in launched)
+    assert not [k for k in launched if "flow" in k or "retention" in k]

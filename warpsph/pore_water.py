@@ -14,7 +14,8 @@ from dataclasses import dataclass
 import numpy as np
 import warp as wp
 
-from warpsph.scene import STANDARD_GRAVITY, Region, Scene
+from warpsph.physics.retention import RETENTION
+from warpsph.scene import EXTENT_TOLERANCE, STANDARD_GRAVITY, Region, Scene
 
 DRAINAGE = {"impermeable": 0, "drained": 1, "inflow": 2}
 
@@ -33,6 +34,16 @@ class PoreWaterModel:
     """(n_materials,) 1/Q [1/Pa]."""
     material_water_density: wp.array
     """(n_materials,) ρ_w [kg/m³]."""
+    material_porosity: wp.array
+    """(n_materials,) n [-]."""
+    material_retention: wp.array
+    """(n_materials,) int32 retention code (:data:`warpsph.physics.retention.RETENTION`)."""
+    material_retention_alpha: wp.array
+    """(n_materials,) α [1/m]."""
+    material_retention_n: wp.array
+    """(n_materials,) van Genuchten n [-]."""
+    material_residual_saturation: wp.array
+    """(n_materials,) S_r [-]."""
     plane_drainage: wp.array
     """(P,) int32: 0 impermeable, 1 drained, 2 inflow."""
     plane_pressure: wp.array
@@ -47,6 +58,29 @@ class PoreWaterModel:
     """(P,) vec3 upper corner of that part [m]."""
     planes: list
     """(P,) the planes' :class:`~warpsph.scene.Drainage` records (host)."""
+
+    def drained_plane_particles(self, model, factors=None):
+        """(on, value, plane): the owned particles lying on drained planes (int32 mask), their
+        prescribed excess pore pressure [Pa] and the plane's index (−1 off them), with each plane's
+        pressure and head multiplied by ``factors`` (P,) (its time function's value; default 1)."""
+        m = model
+        n = m.particle_count
+        on, val, plane = np.zeros(n, np.int32), np.zeros(n), np.full(n, -1, np.int32)
+        drainage = self.plane_drainage.numpy()
+        pressure, head = self.plane_pressure.numpy(), self.plane_head.numpy()
+        if factors is not None:
+            pressure, head = pressure * factors, head * factors
+        x = m.particle_x0
+        rho_w = self.material_water_density.numpy()[m.particle_material.numpy()[:n]]
+        hydro = self.hydrostatic(x, rho_w)
+        g = float(np.linalg.norm(self.gravity))
+        axes = m.plane_axis.numpy()
+        for a, planes in zip(m.constraint_particle.numpy(), m.constraint_planes.numpy().reshape(-1, 3)):
+            for p in planes[planes >= 0]:
+                if drainage[p] == 1 and self.planes[p].covers(x[a : a + 1], axes[p], EXTENT_TOLERANCE * m.dx)[0]:
+                    total = pressure[p] if np.isnan(head[p]) else rho_w[a] * g * (head[p] - x[a, 1])
+                    on[a], val[a], plane[a] = 1, total - hydro[a], p
+        return on, val, plane
 
     def hydrostatic(self, positions: np.ndarray, water_density: np.ndarray) -> np.ndarray:
         """p_h = ρ_w b·(x − x_wt) [Pa] at (N,3) positions (host)."""
@@ -73,6 +107,11 @@ def build_pore_water(scene: Scene, planes_drainage: list, top: float, vec3, grow
         material_permeability=arr([m.hydraulic_conductivity / (m.water_density * STANDARD_GRAVITY) for m in mats]),
         material_inv_biot=arr([0.0 if math.isinf(m.biot_modulus) else 1.0 / m.biot_modulus for m in mats]),
         material_water_density=arr([m.water_density for m in mats]),
+        material_porosity=arr([m.porosity for m in mats]),
+        material_retention=arr([RETENTION[m.retention] for m in mats], wp.int32),
+        material_retention_alpha=arr([m.retention_alpha for m in mats]),
+        material_retention_n=arr([m.retention_n for m in mats]),
+        material_residual_saturation=arr([m.residual_saturation for m in mats]),
         plane_drainage=arr([DRAINAGE[d.kind] for d in planes_drainage] or [0], wp.int32),
         plane_pressure=arr([d.pore_pressure for d in planes_drainage] or [0.0]),
         plane_head=arr([nan if d.head is None else d.head for d in planes_drainage] or [nan]),

@@ -33,6 +33,7 @@ from warpsph.phases import FactorSearch, phase_scene, reduced_strength
 from warpsph.probes import Probes
 from warpsph.scene import FAILURE_DISPLACEMENT, Phase, Scene
 from warpsph.solver import Solver
+from warpsph.stages.groundwater import GroundwaterFlow
 from warpsph.stages.guard import Guard
 
 RESULTS, CHECKPOINT, RECORD = "results.h5", "checkpoint.h5", "run.json"
@@ -138,6 +139,7 @@ class Run:
         elif resume:
             raise InputError(f"--resume: no {CHECKPOINT} in {self.out}")
         phase_index = int(ck.meta.get("phase", 0)) if ck is not None else 0
+        self.phase_index, self.flow = 0, None
         if not 0 <= phase_index < len(self.phases):
             raise InputError("--resume: the checkpoint's phase is not one of this scene's")
         self._enter_phase(phase_index)
@@ -186,6 +188,11 @@ class Run:
         self.probes.displacement_origin = self.origin
         self.loop = {}
         self._load_scale = None  # the phase's constant parts of the applied force (_applied_force)
+        self.flow = None
+        if phase.kind == "flow":
+            height = self._height(self.model.particle_x0)
+            self.flow = GroundwaterFlow(self.model, self.solver, self.state, phase_scene_.reservoirs, phase.tolerance,
+                                        height)  # fmt: skip
         self.phase_start_step, self.phase_start_time = self.step_index, now
         self.records.append(PhaseRecord(phase.name, phase.kind, self.step_index, self.phase_start_time))
 
@@ -204,7 +211,10 @@ class Run:
 
     @property
     def phase_time(self) -> float:
-        """Time since the start of the current phase [s]: the loads' time functions run on it."""
+        """Time since the start of the current phase [s]: the loads' time functions run on it (a flow
+        phase's implicit steps keep their own sum)."""
+        if self.phase.kind == "flow":
+            return self.loop.get("time", 0.0)
         return (self.step_index - self.phase_start_step) * self.dt
 
     @property
@@ -224,6 +234,8 @@ class Run:
             self.solver.layout.restore(ck.arrays)
         if float(ck.meta.get("time_step", self.dt)) != self.dt:
             raise InputError("--resume: the checkpoint was written with another time step")
+        if self.flow is not None and "flow_seeping" in ck.arrays:
+            self.flow.seeping = ck.arrays["flow_seeping"].copy()
         if "displacement_origin" in ck.arrays:
             self.origin = ck.arrays["displacement_origin"]
             self.probes.displacement_origin = self.origin
@@ -241,6 +253,8 @@ class Run:
         if self.solver.layout is not None:
             arrays.update(self.solver.layout.arrays())
         arrays["displacement_origin"] = self.origin
+        if self.flow is not None:
+            arrays["flow_seeping"] = self.flow.seeping
         save_checkpoint(self.out / CHECKPOINT, step=self.step_index, time=self.time, arrays=arrays,
                         meta={"time_step": self.dt, "scene": self.scene.name, "precision": self.model.spec.precision,
                               "phase": self.phase_index, "phases": json.dumps([asdict(r) for r in self.records]),
@@ -281,6 +295,8 @@ class Run:
             frame["plastic_strain"] = fields["plastic_strain"]
         if "darcy_velocity" in wanted:
             frame["darcy_velocity"] = self.solver.projection.darcy_velocity(self.state)
+        if self.flow is not None:
+            frame["saturation"] = self.flow.saturation_field()
         self._sample_probes(fields)
         self.results.write_frame(self.step_index, self.time, frame, phase=self.phase_index, **attrs)
         if self.staged:
@@ -324,6 +340,8 @@ class Run:
 
     # -- one step ---------------------------------------------------------------------------------
     def _warm_up(self) -> None:
+        if self.flow is not None:  # no mechanical step: the flow kernels compile at their first use
+            return
         self.summary.compile_seconds += warm_up(self.solver, self.guard, self.state, self.scratch, self.phase_time,
                                                 self.dt)  # fmt: skip
         if self.solver.damping is not None:
@@ -419,6 +437,66 @@ class Run:
             if at_rest:
                 return AT_REST
         return outcome
+
+    def _run_flow(self, progress) -> str:
+        """Groundwater flow through the fixed skeleton (:class:`~warpsph.stages.groundwater.GroundwaterFlow`):
+        the steady state, or a transient of the phase's duration in implicit steps sized by the pressure
+        change they make (``STEP_CHANGE``), halved after one whose iteration fails, ending on each of
+        the phase's frame times."""
+        phase, flow, record = self.phase, self.flow, self.records[-1]
+        if phase.steady:
+            converged = flow.solve(0.0, None, max_iterations=phase.max_steps)
+            self.step_index += flow.iterations
+            self.summary.steps += flow.iterations
+            self._flow_series()
+            record.criterion = flow.iterations
+            self._write_frame()
+            self._checkpoint()
+            return CONVERGED if converged else NOT_CONVERGED
+        frame_times = phase.duration * np.arange(1, phase.frames + 1) / phase.frames
+        dt = self.loop.get("dt", phase.time_step or phase.duration / 1000.0)
+        stop = math.inf if self.stop_time is None else self.stop_time - self.phase_start_time
+        while self.phase_time < phase.duration * (1.0 - 1e-12):
+            t = self.phase_time
+            if t >= stop:
+                return STOPPED
+            target = float(frame_times[np.searchsorted(frame_times, t * (1.0 + 1e-12) + 1e-300, side="right")])
+            step = min(dt, target - t)
+            if self.step_index - self.phase_start_step >= phase.max_steps:
+                return NOT_CONVERGED
+            converged = flow.solve(t + step, step)
+            smallest = 1e-12 * phase.duration
+            if not converged or (flow.step_change > 1.5 and step > smallest):
+                dt = 0.5 * step if not converged else step * max(0.25, 0.8 / flow.step_change)
+                if dt < smallest:
+                    self._unstable(f"the groundwater flow does not converge even with a time step of {step:.3g} s")
+                if converged:  # too large a change: put the step back
+                    flow.undo()
+                continue
+            self.loop["time"] = t + step if target - (t + step) > 1e-9 * phase.duration else target
+            if step >= dt:  # not a step shortened to meet a frame time
+                dt = step * min(1.5, 0.9 / max(flow.step_change, 1e-300))
+            self.loop["dt"] = dt
+            self.step_index += 1
+            self.summary.steps += 1
+            record.criterion = self.loop["time"]
+            self._flow_series()
+            if not np.all(np.isfinite(self.state.particle_pore_pressure.numpy())):
+                self._unstable("the pore pressure is not finite")
+            if self.loop["time"] == target:
+                self._write_frame()
+                self._checkpoint()
+            if progress is not None:
+                progress(self.time, self.step_index)
+        return FINISHED
+
+    def _flow_series(self) -> None:
+        """A flow step's discharges, storage rate and iterations as series."""
+        flow = self.flow
+        for name, value in flow.discharge.items():
+            self.results.append_series(f"discharge_{name}", self.step_index, self.time, value)
+        self.results.append_series("storage_rate", self.step_index, self.time, flow.storage_rate)
+        self.results.append_series("flow_iterations", self.step_index, self.time, flow.iterations)
 
     def _applied_force(self) -> float:
         """Σ m‖g‖ over the particles plus the loads' resultants at the phase's time [N/m or N]: the
@@ -540,7 +618,8 @@ class Run:
                 self._write_frame()
                 self._checkpoint()
             loops = {"k0": lambda progress: CONVERGED, "dynamic": self._run_dynamic,
-                     "equilibrium": self._run_equilibrium, "safety": self._run_safety}  # fmt: skip
+                     "equilibrium": self._run_equilibrium, "safety": self._run_safety,
+                     "flow": self._run_flow}  # fmt: skip
             while True:
                 record = self.records[-1]
                 outcome = loops[self.phase.kind](progress)

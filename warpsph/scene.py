@@ -190,6 +190,17 @@ class Material:
     """Perzyna normalising stress F₀ [Pa] > 0: d^vp = γ ⟨F/F₀⟩^N ∂G/∂σ′ (viscoplastic)."""
     rate_exponent: float = 1.0
     """Perzyna exponent N ≥ 1 (viscoplastic)."""
+    retention: str = "saturated"
+    """Water retention above the phreatic surface (pore_water effect, flow phases): "saturated" (S = 1
+    at any suction), "van_genuchten" (van Genuchten–Mualem) or "gardner" (exponential); docs/scenes.md,
+    *Groundwater flow*."""
+    retention_alpha: float = 1.0
+    """α [1/m]: the inverse of the suction head at which the soil starts to desaturate (van Genuchten),
+    or the exponent of S_e = k_r = exp(−α ψ) (Gardner)."""
+    retention_n: float = 2.0
+    """van Genuchten n > 1 [-] (m = 1 − 1/n); larger n desaturates more sharply."""
+    residual_saturation: float = 0.0
+    """Residual degree of saturation S_r in [0, 1) [-]: S = S_r + (1 − S_r) S_e."""
 
     @property
     def shear_modulus(self) -> float:
@@ -280,6 +291,9 @@ class Drainage:
     head: float | None = None
     inflow: float = 0.0
     extent: Region | None = None
+    time_function: TimeFunction = field(default_factory=TimeFunction)
+    """Flow phases: the pore pressure, head and inflow are multiplied by f(t) of the phase's time (a
+    head table of a rising river is ``head`` = its highest level with values ≤ 1)."""
 
     def covers(self, points: np.ndarray, axis: int, tol: float = 0.0) -> np.ndarray:
         """Mask of the (N,3) ``points`` of a face normal to ``axis`` where this condition holds (its
@@ -361,6 +375,22 @@ class Load(_OnPlane):
 
 
 @dataclass
+class Reservoir:
+    """A body of free water standing against the model's free surfaces (flow phases).
+
+    The free-surface particles inside ``region`` and below the water's level y = ``level`` × f(t) [m]
+    take its pore pressure ρ_w g (level − y); every other free-surface particle is a seepage face,
+    where water leaves once its pore pressure would exceed the atmosphere's and none enters
+    (docs/scenes.md, *Groundwater flow*).
+    """
+
+    name: str = "reservoir"
+    level: float = 0.0
+    region: Region = field(default_factory=Region)
+    time_function: TimeFunction = field(default_factory=TimeFunction)
+
+
+@dataclass
 class Probe:
     """A time series written to the results file.
 
@@ -433,7 +463,7 @@ class Output:
     """Probes are sampled every this many steps."""
 
 
-PHASE_KINDS = ("k0", "equilibrium", "safety", "dynamic")
+PHASE_KINDS = ("k0", "equilibrium", "safety", "dynamic", "flow")
 FAILURE_DISPLACEMENT = 0.02
 """A safety trial's default failure displacement as a fraction of the bodies' height [-]. Measured on
 Griffiths & Lane's slope (12 m of soil), the largest displacement of trials that come to rest: at
@@ -452,7 +482,9 @@ class Phase:
     under gravity and the phase's loads, reached by dynamics with local damping, ended when the
     unbalanced-force ratio falls below ``tolerance``; "safety": the factor of safety by strength
     reduction, each trial an equilibrium from the phase's start with the strengths divided by the
-    trial factor; "dynamic": the unmodified solver for ``duration`` [s] (or until the mass is at rest).
+    trial factor; "dynamic": the unmodified solver for ``duration`` [s] (or until the mass is at rest);
+    "flow": groundwater flow through the fixed skeleton in implicit steps, a transient of ``duration``
+    [s] or the ``steady`` state, with seepage faces and reservoirs (docs/scenes.md, *Groundwater flow*).
     """
 
     name: str = "phase"
@@ -460,10 +492,13 @@ class Phase:
     duration: float = 0.0
     """Dynamic: simulated time the phase lasts [s] (> 0)."""
     tolerance: float = 1.0e-5
-    """Equilibrium and safety: the unbalanced-force ratio at which equilibrium is reached [-]."""
+    """Equilibrium and safety: the unbalanced-force ratio at which equilibrium is reached [-]; flow: the
+    largest pressure change of an iteration, over ρ_w g times the bodies' height, at which the
+    pressure iteration of a step (or of the steady state) has converged [-]."""
     max_steps: int = 20000
     """Equilibrium: the step cap (a phase that reaches it has not converged); safety: the cap of each
-    trial (a trial that reaches it has failed); dynamic: a cap on the phase's steps too."""
+    trial (a trial that reaches it has failed); dynamic and flow: a cap on the phase's steps too (a
+    steady flow phase's pressure iterations)."""
     damping: float = 0.8
     """Equilibrium and safety: the local damping coefficient α in [0, 1) [-]."""
     at_rest: float = 0.0
@@ -479,6 +514,13 @@ class Phase:
     ``"loads.top.traction" = [0, -2e4]``, ``"materials.soil.cohesion" = 5e3``."""
     reset_displacements: bool = False
     """Measure displacements from the positions at the start of this phase."""
+    steady: bool = False
+    """Flow: solve for the steady state instead of a transient of ``duration``."""
+    time_step: float = 0.0
+    """Flow: the first implicit time step [s]; 0: ``duration`` / 1000. Later steps grow while the
+    pressure iteration converges quickly and shrink where it does not."""
+    frames: int = 10
+    """Flow: frames written over the phase, evenly in time (a steady phase writes its end)."""
     factor_tolerance: float = 0.01
     """Safety: the search stops when the factor of safety is bracketed to ± this [-]."""
     factor_max: float = 10.0
@@ -503,6 +545,8 @@ class Scene:
     probes: list[Probe] = field(default_factory=list)
     pressure: PressureSolver = field(default_factory=PressureSolver)
     output: Output = field(default_factory=Output)
+    reservoirs: list[Reservoir] = field(default_factory=list)
+    """Free water against the free surfaces (flow phases)."""
     phases: list[Phase] = field(default_factory=list)
     """Staged analysis: the phases in order; none runs one dynamic phase to ``simulation.end_time``."""
     source_text: str = ""

@@ -26,6 +26,7 @@ import numpy as np
 
 from warpsph.errors import SceneError
 from warpsph.lattice import has_lattice_point, lattice_span, polygon_area, used_axes
+from warpsph.physics.retention import RETENTION
 from warpsph.scene import (
     AXES,
     Body,
@@ -40,6 +41,7 @@ from warpsph.scene import (
     PressureSolver,
     Probe,
     Region,
+    Reservoir,
     Scene,
     Simulation,
     TimeFunction,
@@ -319,8 +321,25 @@ def validate_scene(scene: Scene) -> None:
         raise SceneError("phases", f"expected a list of phases, got {type(scene.phases).__name__}")
     if scene.phases:
         _check_phases(scene)
-        return
-    _validate_one_phase(scene)
+    else:
+        _validate_one_phase(scene)
+    _check_changing_water(scene)
+
+
+def _check_changing_water(scene: Scene) -> None:
+    """Reservoirs and drainage time functions act in flow phases: a scene with either needs one, and
+    drainage that changes in time may not reach a phase that would hold it constant."""
+    kinds = [p.kind for p in scene.phases] or ["dynamic"]
+    if scene.reservoirs and "flow" not in kinds:
+        raise SceneError("reservoirs", 'a reservoir acts in flow phases (kind = "flow"), and this scene has none: '
+                         "it would do nothing")  # fmt: skip
+    mechanical = [k for k in kinds if k not in ("flow", "k0")]
+    for section in ("boundaries", "loads"):
+        for i, face in enumerate(getattr(scene, section)):
+            if face.drainage.time_function.kind != "constant" and mechanical:
+                raise SceneError(f"{item_key(section, face.name, i)}.drainage.time_function",
+                                 f'drainage changes in time in flow phases only; this scene also has a '
+                                 f'{show(mechanical[0])} phase, where it would be held constant')  # fmt: skip
 
 
 def _validate_one_phase(scene: Scene) -> None:
@@ -353,6 +372,14 @@ def _validate_one_phase(scene: Scene) -> None:
     for i, probe in enumerate(probes):
         _check_probe(probe, item_key("probes", probe.name, i), scene)
     _check_output(scene.output, scene.effects)
+    reservoirs = _named_items(scene, "reservoirs", Reservoir)
+    check_unique("reservoir", ("reservoirs", reservoirs))
+    for i, reservoir in enumerate(reservoirs):
+        key = item_key("reservoirs", reservoir.name, i)
+        check_types(reservoir, key)
+        _needs_pore_water(key, scene.effects, "a reservoir ")
+        _check_region(reservoir.region, f"{key}.region")
+        _check_time_function(reservoir.time_function, f"{key}.time_function")
 
 
 def _check_phases(scene: Scene) -> None:
@@ -376,6 +403,8 @@ def _check_phases(scene: Scene) -> None:
         check_range(f"{key}.factor_tolerance", phase.factor_tolerance, Interval(0.0, 0.5, hi_closed=True))
         check_range(f"{key}.factor_max", phase.factor_max, Interval(1.0, lo_closed=True))
         check_range(f"{key}.failure_displacement", phase.failure_displacement, NON_NEGATIVE)
+        if phase.kind == "flow":
+            _check_flow_phase(phase, key, scene)
         if phase.kind == "safety" and not scene.effects.plasticity:
             raise SceneError(f"{key}.kind", '"safety" reduces strengths: it needs effects.plasticity = true and '
                              'a viscoplastic material')  # fmt: skip
@@ -404,6 +433,19 @@ def _check_phases(scene: Scene) -> None:
             if i == 0:
                 raise
             raise SceneError(key, f"{e.key}: {e.message}" if e.key else e.message) from None
+
+
+def _check_flow_phase(phase: Phase, key: str, scene: Scene) -> None:
+    if not scene.effects.pore_water:
+        raise SceneError(f"{key}.kind", '"flow" moves the pore water: it needs effects.pore_water = true')
+    if not phase.steady:
+        check_range(f"{key}.duration", phase.duration, POSITIVE)
+    check_range(f"{key}.time_step", phase.time_step, NON_NEGATIVE)
+    check_range(f"{key}.frames", phase.frames, Interval(1.0, lo_closed=True, hi_closed=True))
+    drained = any(face.drainage.kind != "impermeable" for face in [*scene.boundaries, *scene.loads])
+    if phase.steady and not drained and not scene.reservoirs:
+        raise SceneError(f"{key}.steady", "a steady flow needs water to come from somewhere: a drained or inflow "
+                         "boundary, or a reservoir; with seepage faces alone the soil drains to nothing")  # fmt: skip
 
 
 def _named_items(scene: Scene, section: str, cls) -> list:
@@ -501,6 +543,7 @@ def _check_materials(materials: dict, effects: Effects) -> None:
             )
         if material.k0 is not None:
             check_range(f"{key}.k0", material.k0, NON_NEGATIVE)
+        _check_retention(material, key, effects)
     _check_one_yield_function(materials)
 
 
@@ -518,6 +561,17 @@ def _check_viscoplastic(material: Material, key: str, effects: Effects) -> None:
     check_range(f"{key}.fluidity", material.fluidity, POSITIVE)
     check_range(f"{key}.reference_stress", material.reference_stress, POSITIVE)
     check_range(f"{key}.rate_exponent", material.rate_exponent, Interval(1.0, lo_closed=True, hi_closed=True))
+
+
+def _check_retention(material: Material, key: str, effects: Effects) -> None:
+    check_choice(f"{key}.retention", material.retention, tuple(RETENTION))
+    if material.retention == "saturated":
+        return
+    _needs_pore_water(f"{key}.retention", effects, "a retention curve ")
+    check_range(f"{key}.retention_alpha", material.retention_alpha, POSITIVE)
+    if material.retention == "van_genuchten":
+        check_range(f"{key}.retention_n", material.retention_n, Interval(1.0))
+    check_range(f"{key}.residual_saturation", material.residual_saturation, Interval(0.0, 1.0, lo_closed=True))
 
 
 def _check_one_yield_function(materials: dict) -> None:
@@ -658,6 +712,7 @@ def _check_load(load: Load, key: str, scene: Scene) -> None:
 
 def _check_drainage(drainage: Drainage, key: str, effects: Effects) -> None:
     check_choice(f"{key}.kind", drainage.kind, ("impermeable", "drained", "inflow"))
+    _check_time_function(drainage.time_function, f"{key}.time_function")
     if drainage.kind != "impermeable":
         _needs_pore_water(f"{key}.kind", effects, "")
     if drainage.extent is not None:

@@ -31,7 +31,6 @@ import warp as wp
 from warpsph.errors import SimulationError
 from warpsph.launching import launch, launch_rows
 from warpsph.model import PLANE_TRACTION, Model
-from warpsph.scene import EXTENT_TOLERANCE
 from warpsph.stages.linear_solve import LinearSolver
 from warpsph.stages.pressure_kernels import (
     LOW_PERMEABILITY_WEIGHT,
@@ -159,21 +158,7 @@ class PressureProjection:
 
     def _drained_plane_particles(self):
         """Owned particles lying on drained planes and their prescribed excess pressure (host)."""
-        m, pw = self.model, self.model.pore
-        n = m.particle_count
-        on, val = np.zeros(n, np.int32), np.zeros(n)
-        drainage = pw.plane_drainage.numpy()
-        pressure, head = pw.plane_pressure.numpy(), pw.plane_head.numpy()
-        x = m.particle_x0
-        rho_w = pw.material_water_density.numpy()[m.particle_material.numpy()[:n]]
-        hydro = pw.hydrostatic(x, rho_w)
-        g = float(np.linalg.norm(pw.gravity))
-        axes = m.plane_axis.numpy()
-        for a, planes in zip(m.constraint_particle.numpy(), m.constraint_planes.numpy().reshape(-1, 3)):
-            for p in planes[planes >= 0]:
-                if drainage[p] == 1 and pw.planes[p].covers(x[a : a + 1], axes[p], EXTENT_TOLERANCE * m.dx)[0]:
-                    total = pressure[p] if np.isnan(head[p]) else rho_w[a] * g * (head[p] - x[a, 1])
-                    on[a], val[a] = 1, total - hydro[a]
+        on, val, _plane = self.model.pore.drained_plane_particles(self.model)
         return on, val
 
     def _plane_args(self):

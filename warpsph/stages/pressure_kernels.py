@@ -5,7 +5,8 @@ Kernels: ``pressure_ghosts`` (ghost values with each plane's pressure parity), t
 real fits of the projection (``fit_vector_at_virtual``, ``fit_scalar_at_virtual``,
 ``divergence_at_real``, ``gradient_at_real``), ``correct_velocity``, ``darcy``, ``mark_dirichlet``
 (drained rows), the roughness damping's ``mark_near_surface`` and ``roughness``, ``assemble`` (the
-matrix rows and right-hand side on the real–real list) and ``difference``.
+matrix rows and right-hand side on the real–real list) and ``difference``; the function
+``ghost_affine`` (a ghost's pressure parity) is shared with :mod:`warpsph.stages.groundwater_kernels`.
 """
 
 import functools
@@ -539,5 +540,5 @@ def pressure_kernels(spec: Spec):
         gradient_at_real=gradient_at_real, correct_velocity=correct_velocity, darcy=darcy,
         mark_dirichlet=mark_dirichlet, mark_near_surface=mark_near_surface, roughness=roughness,
         extrapolate_to_sealed_faces=extrapolate_to_sealed_faces, assemble=assemble,
-        difference=difference,
+        difference=difference, ghost_affine=ghost_affine,
     )  # fmt: skip

@@ -1,0 +1,237 @@
+"""Groundwater flow through the fixed skeleton: the flow phase's implicit steps (docs/method.md,
+*Groundwater flow*).
+
+Each step is backward Euler on the water balance, ∂(nS)/∂t + (S/Q) ∂p/∂t = ∇·(k k_r ∇p_excess),
+iterated to convergence by modified Picard (Celia's mass-conservative form) with the real–real
+Morris Laplacian of the projection; the steady state drops the storage. Drained planes keep their
+ghost parities; free-surface particles inside a reservoir below its level take its pressure, and
+every other free-surface particle is a seepage face: held at atmospheric pressure while water
+leaves through it, released where water would enter.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+import warp as wp
+
+from warpsph.errors import SceneError
+from warpsph.launching import launch_rows
+from warpsph.model import Model, State
+from warpsph.scene import STANDARD_GRAVITY
+from warpsph.stages.groundwater_kernels import groundwater_kernels
+from warpsph.stages.linear_solve import LinearSolver
+from warpsph.stages.pressure_kernels import DRAINED_SURFACE_EIGENVALUE
+
+MAX_ITERATIONS = 40
+"""Picard iterations of one transient step before it is retried with half the time step."""
+STEP_CHANGE = 0.02
+"""Accuracy of a transient step: the largest change of pore pressure it may make where the water
+content follows the pressure (off the held rows), as a fraction of ρ_w g times the bodies' height [-];
+a step that changes more is retried shorter, and the next step is sized from this one's change (at
+most 1.5 times longer)."""
+
+
+class GroundwaterFlow:
+    """The flow phase's solver on ``model``'s fixed configuration in ``state`` (``solver``: the
+    phase's :class:`~warpsph.solver.Solver`, whose ghosts, neighbour lists and corrections give
+    the geometry once); ``reservoirs``: the phase's :class:`~warpsph.scene.Reservoir` list."""
+
+    def __init__(self, model: Model, solver, state: State, reservoirs: list, tolerance: float, height: float):
+        self.model, self.state = model, state
+        m, pw, dev = model, model.pore, model.device
+        n = m.particle_count
+        self.k = groundwater_kernels(m.spec)
+        for stage in ("ghosts", "neighbours", "corrections"):
+            solver.stages[solver.stage_names.index(stage)].run(state, state, 0.0, m.scene.time_step)
+        self.projection = solver.projection
+        self.lists = solver.real_to_real
+        self.reservoirs = reservoirs
+        self.planes = pw.planes
+        x = m.particle_x0
+        rho_w = pw.material_water_density.numpy()[m.particle_material.numpy()[:n]]
+        self.rho_g = rho_w * float(np.linalg.norm(pw.gravity))
+        self.hydro = pw.hydrostatic(x, rho_w)
+        self.y = x[:, 1]
+        on, _val, _plane = pw.drained_plane_particles(m)
+        eigen = solver.real_fits.smallest_eigenvalue.numpy()[:n]
+        self.surface = (eigen < DRAINED_SURFACE_EIGENVALUE) & (on == 0)
+        self.in_reservoir = [r.region.contains(x, 1e-6 * m.dx) & self.surface for r in reservoirs]
+        for r, inside in zip(reservoirs, self.in_reservoir):
+            if not inside.any():
+                raise SceneError(f"reservoirs.{r.name}.region", "contains no free-surface particle: this water "
+                                 "touches no surface of the model")  # fmt: skip
+        self.scale = STANDARD_GRAVITY * 1000.0 * max(height, m.dx)
+        """ρ_w g times the bodies' height [Pa]: the scale of the pressure changes."""
+        self.tolerance = tolerance * self.scale
+        """Largest pressure change of a converged iteration [Pa]."""
+        self.n_tags = m.plane_count + 1 + len(reservoirs)
+        """Discharge tags: the planes, the seepage faces, then the reservoirs."""
+        f64 = wp.float64
+        zeros = lambda size, dtype=f64: wp.zeros(size, dtype=dtype, device=dev)  # noqa: E731
+        self.saturation, self.capacity, self.relative = zeros(n), zeros(n), zeros(n)
+        self.saturation_start = zeros(n)
+        self.p_iter, self.p_start = zeros(n), zeros(n)
+        self.dirichlet, self.value, self.tag = zeros(n, wp.int32), zeros(n), zeros(n, wp.int32)
+        self.diag, self.rhs, self.released, self.stored = zeros(n), zeros(n), zeros(n), zeros(n)
+        self.increment, self.increment_rhs = zeros(n), zeros(n)
+        self.discharge_rows = zeros(n * self.n_tags)
+        size = max(1, self.lists.indices.shape[0])
+        self.weight, self.column = zeros(size), zeros(size, wp.int32)
+        self.plane_pressure, self.plane_head, self.plane_inflow = (
+            wp.clone(pw.plane_pressure), wp.clone(pw.plane_head), wp.clone(pw.plane_inflow))  # fmt: skip
+        self.linear = LinearSolver(n, dev, m.scene.pressure)
+        self.seeping = (self.surface & (self._excess() + self.hydro >= 0.0)).astype(np.int32)
+        """1 on the seepage-face particles held at atmospheric pressure (water leaves there)."""
+        self.iterations = 0
+        self.step_change = 0.0
+        """The last step's largest pressure change off the held rows over STEP_CHANGE × ``scale`` [-]."""
+        self.discharge: dict[str, float] = {}
+        """The last step's discharge [m³/s, per metre in 2D] out of the body through each boundary,
+        load, seepage face and reservoir that passes water (negative: into it)."""
+        self.storage_rate = 0.0
+        """The last step's rate of growth of the water held in the body [m³/s, per metre in 2D]."""
+
+    def _excess(self) -> np.ndarray:
+        return self.state.particle_pore_pressure.numpy()[: self.model.particle_count]
+
+    # -- conditions -----------------------------------------------------------------------------
+    def _conditions(self, t: float) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+        """Rows held at a value at time t: (dirichlet, value, tag, candidate seepage rows)."""
+        m, pw = self.model, self.model.pore
+        factors = np.array([d.time_function(t) for d in self.planes] or [1.0])
+        self.plane_pressure.assign(pw.plane_pressure.numpy() * factors)
+        self.plane_head.assign(pw.plane_head.numpy() * factors)
+        self.plane_inflow.assign(pw.plane_inflow.numpy() * factors)
+        on, value, tag = pw.drained_plane_particles(m, factors if self.planes else None)
+        dirichlet = on.copy()
+        seepage_tag = m.plane_count
+        free = self.surface.copy()
+        for r, (res, inside) in enumerate(zip(self.reservoirs, self.in_reservoir)):
+            level = res.level * res.time_function(t)
+            wet = inside & free & (self.y <= level)
+            dirichlet[wet], tag[wet] = 1, seepage_tag + 1 + r
+            value[wet] = self.rho_g[wet] * (level - self.y[wet]) - self.hydro[wet]
+            free &= ~wet
+        value[free], tag[free] = -self.hydro[free], seepage_tag
+        return dirichlet, value, np.maximum(tag, 0), free
+
+    # -- one step -------------------------------------------------------------------------------
+    def _args(self, inv_dt: float, p_iter):
+        m, pw = self.model, self.model.pore
+        b = self.projection.solver.boundaries
+        nl = self.lists
+        return [m.spec.real(m.h), wp.float64(inv_dt), wp.float64(self.projection.scale), m.particle_count,
+                nl.offsets, nl.indices, self.state.particle_q, m.particle_origin, m.particle_mass,
+                self.state.particle_density, m.particle_material, pw.material_permeability, pw.material_inv_biot,
+                self.relative, self.saturation, self.capacity, self.saturation_start, pw.material_porosity, p_iter,
+                self.p_start, m.particle_ghost_source, m.particle_ghost_planes, m.plane_axis, b.plane_position,
+                m.plane_sign, m.plane_kind, pw.plane_drainage, pw.plane_drained_lo, pw.plane_drained_hi,
+                self.plane_pressure, self.plane_head, self.plane_inflow, pw.material_water_density,
+                m.spec.vec3(*pw.gravity), wp.float64(pw.water_table), self.dirichlet]  # fmt: skip
+
+    def _retention(self, p, out_saturation=None) -> None:
+        m, pw = self.model, self.model.pore
+        launch_rows(self.k["retention_fields"], m.particle_count,
+                    [self.state.particle_q, m.particle_material, pw.material_water_density, m.spec.vec3(*pw.gravity),
+                     wp.float64(pw.water_table), pw.material_retention, pw.material_retention_alpha,
+                     pw.material_retention_n, pw.material_residual_saturation, pw.material_porosity, p,
+                     out_saturation or self.saturation, self.capacity, self.relative], m.device)  # fmt: skip
+
+    def solve(self, t: float, dt: float | None, max_iterations: int = MAX_ITERATIONS) -> bool:
+        """Advance the pore pressure in the state to time ``t`` by one implicit step of ``dt`` [s]
+        (None: to the steady state, with up to ``max_iterations`` iterations); False, with the
+        pressure put back, if the iteration did not converge."""
+        m, dev = self.model, self.model.device
+        n = m.particle_count
+        p = self.state.particle_pore_pressure
+        wp.copy(self.p_start, p, count=n)
+        self._seeping_start = self.seeping.copy()
+        base, value, tag, candidates = self._conditions(t)
+        self.tag.assign(tag)
+        inv_dt = 0.0 if dt is None else 1.0 / dt
+        self._retention(self.p_start, self.saturation_start)
+        relaxation = 1.0
+        last_change = np.inf
+        for iteration in range(1, max_iterations + 1):
+            dirichlet = base | (candidates & (self.seeping == 1))
+            self.dirichlet.assign(dirichlet.astype(np.int32))
+            self.value.assign(value)
+            current = self._excess()
+            self.p_iter.assign(current)
+            self._retention(self.p_iter)
+            args = self._args(inv_dt, self.p_iter)
+            launch_rows(self.k["assemble_flow"], n,
+                        [*args, self.value, self.projection.face_factor, self.weight, self.column, self.diag,
+                         self.rhs], dev)  # fmt: skip
+            matrix = [self.lists.offsets, self.weight, self.column, self.diag]
+            launch_rows(self.k["residual"], n, [*matrix, self.p_iter, self.rhs, self.increment_rhs, self.increment],
+                        dev)  # fmt: skip
+            self.linear.solve(matrix, self.increment_rhs, self.increment)
+            launch_rows(self.k["add_increment"], n, [self.p_iter, self.increment, p], dev)
+            new = self._excess()
+            if dt is None and relaxation < 1.0:
+                new = current + relaxation * (new - current)
+                new[dirichlet == 1] = value[dirichlet == 1]
+                p.assign(np.concatenate([new, p.numpy()[n:]]))
+            change = float(np.max(np.abs(new - current), initial=0.0))
+            flips = self._update_seepage(args, candidates, new)
+            self.iterations = iteration
+            if change < self.tolerance and flips == 0:
+                self._record(args)
+                moved = np.abs(new - self.p_start.numpy())[(dirichlet == 0) & self._stores_water()]
+                self.step_change = float(np.max(moved, initial=0.0)) / (STEP_CHANGE * self.scale)
+                return True
+            if dt is None and change > last_change:
+                relaxation = max(0.1, 0.5 * relaxation)
+            last_change = change
+        self.undo()
+        return False
+
+    def undo(self) -> None:
+        """Put the pore pressure and the seepage faces back to the start of the last step."""
+        p, n = self.state.particle_pore_pressure, self.model.particle_count
+        p.assign(np.concatenate([self.p_start.numpy(), p.numpy()[n:]]))
+        self.seeping = self._seeping_start.copy()
+
+    def _balance(self, args) -> None:
+        m = self.model
+        launch_rows(self.k["flow_balance"], m.particle_count,
+                    [*args, self.projection.face_factor, self.tag, self.n_tags, self.state.particle_pore_pressure,
+                     self.released, self.discharge_rows, self.stored], m.device)  # fmt: skip
+
+    def _update_seepage(self, args, candidates: np.ndarray, p: np.ndarray) -> int:
+        """Hold the seepage rows whose pressure rose above the atmosphere's; release those into which
+        water would flow (their own equation gives less than it); the number changed."""
+        self._balance(args)
+        total = p + self.hydro
+        released = self.released.numpy() + self.hydro
+        margin = self.tolerance
+        hold = candidates & (self.seeping == 0) & (total > margin)
+        free = candidates & (self.seeping == 1) & (released < -margin)
+        self.seeping[hold] = 1
+        self.seeping[free] = 0
+        return int(hold.sum() + free.sum())
+
+    def _record(self, args) -> None:
+        """The step's discharge through each named boundary and the storage rate."""
+        self._balance(args)
+        rows = self.discharge_rows.numpy().reshape(-1, self.n_tags)
+        totals = rows.sum(axis=0)
+        names = list(self.model.plane_names) + ["seepage"] + [r.name for r in self.reservoirs]
+        self.discharge = {}
+        for name, value in zip(names, totals):
+            self.discharge[name] = self.discharge.get(name, 0.0) + float(value)
+        self.storage_rate = float(np.sum(self.stored.numpy()[self.dirichlet.numpy() == 0]))
+        self._retention(self.state.particle_pore_pressure)
+
+    def _stores_water(self) -> np.ndarray:
+        """Mask of the rows whose water content changes with their pressure (n dS/dp + S/Q > 0); the
+        others (saturated soil of incompressible water) follow the rest at once, whatever the step."""
+        m = self.model
+        inv_biot = m.pore.material_inv_biot.numpy()[m.particle_material.numpy()[: m.particle_count]]
+        return self.capacity.numpy() + self.saturation.numpy() * inv_biot > 0.0
+
+    def saturation_field(self) -> np.ndarray:
+        """(N,) degree of saturation [-] of the current state (host)."""
+        self._retention(self.state.particle_pore_pressure)
+        return self.saturation.numpy().copy()

@@ -1,0 +1,227 @@
+"""Warp kernels of groundwater flow through the fixed skeleton (flow phases), float64 throughout;
+:mod:`warpsph.stages.groundwater` drives them (docs/method.md, *Groundwater flow*).
+
+Kernels: ``retention_fields`` (S, n dS/dp and k_r at every particle), ``assemble_flow`` (the rows
+of one modified-Picard iteration of backward Euler on the real–real list), ``residual`` and
+``add_increment`` (the iteration solves for its increment) and ``flow_balance`` (each row's value
+with its own condition released, the discharge into each boundary and the water stored per unit
+time).
+"""
+
+import functools
+
+import warp as wp
+
+from warpsph.physics.retention import retention_state
+from warpsph.sph.kernels import smoothing_functions
+from warpsph.sph.spec import Spec
+from warpsph.stages.boundaries import plane_functions
+from warpsph.stages.linear_solve import apply_row
+from warpsph.stages.pressure_kernels import ETA, pressure_kernels
+
+
+@functools.cache
+def groundwater_kernels(spec: Spec):
+    """The flow phase's Warp kernels for ``spec``, by name."""
+    real, vec3 = spec.real, spec.vec3
+    f64 = wp.float64
+    zero = f64(0.0)
+    _W, grad_W = smoothing_functions(spec)
+    _traction, drainage_here = plane_functions(spec)
+    ghost_affine = pressure_kernels(spec)["ghost_affine"]
+
+    @wp.func
+    def hydrostatic(x: vec3, water_density: f64, gravity: vec3, water_table: f64):
+        """p_h = ρ_w b·(x − x_wt) [Pa]."""
+        return water_density * (f64(gravity[0]) * f64(x[0]) + f64(gravity[1]) * (f64(x[1]) - water_table)
+                                + f64(gravity[2]) * f64(x[2]))  # fmt: skip
+
+    @wp.kernel(enable_backward=False, module="unique")
+    def retention_fields(
+        first: int, q: wp.array(dtype=vec3), material: wp.array(dtype=wp.int32),
+        water_density: wp.array(dtype=f64), gravity: vec3, water_table: f64, retention: wp.array(dtype=wp.int32),
+        alpha: wp.array(dtype=f64), vg_n: wp.array(dtype=f64), residual: wp.array(dtype=f64),
+        porosity: wp.array(dtype=f64), p: wp.array(dtype=f64),
+        saturation: wp.array(dtype=f64), capacity: wp.array(dtype=f64), relative: wp.array(dtype=f64),
+    ):  # fmt: skip
+        """S, the specific moisture capacity n dS/dp [1/Pa] and k_r at the excess pressure ``p``."""
+        a = first + wp.tid()
+        mat = material[a]
+        rho_w = water_density[mat]
+        total = p[a] + hydrostatic(q[a], rho_w, gravity, water_table)
+        s, slope, kr = retention_state(retention[mat], alpha[mat], vg_n[mat], residual[mat],
+                                       rho_w * f64(wp.length(gravity)), total)  # fmt: skip
+        saturation[a] = s
+        capacity[a] = porosity[mat] * slope
+        relative[a] = kr
+
+    @wp.func
+    def flow_pair(
+        a: int, j: int, n: int, h: real, scale: f64, q: wp.array(dtype=vec3), origin: wp.array(dtype=vec3),
+        mass: wp.array(dtype=real), density: wp.array(dtype=real), material: wp.array(dtype=wp.int32),
+        permeability: wp.array(dtype=f64), relative: wp.array(dtype=f64), ghost_source: wp.array(dtype=wp.int32),
+        ghost_chain: wp.array(dtype=wp.vec3i), plane_axis: wp.array(dtype=wp.int32),
+        plane_position: wp.array(dtype=real), plane_sign: wp.array(dtype=real), plane_kind: wp.array(dtype=wp.int32),
+        drainage: wp.array(dtype=wp.int32), drained_lo: wp.array(dtype=vec3), drained_hi: wp.array(dtype=vec3),
+        drained_pressure: wp.array(dtype=f64), head: wp.array(dtype=f64), inflow: wp.array(dtype=f64),
+        water_density: wp.array(dtype=f64), gravity: vec3, water_table: f64,
+    ):  # fmt: skip
+        """(col, w, s, c, plane) of row a's neighbour j: the pair's Darcy weight V_a V_j κ_aj m_aj with
+        κ = twice the harmonic mean of k times the mean k_r, the owned particle ``col`` it reads and
+        its ghost parity p_j = s p_col + c; ``plane`` the drained or inflow plane a ghost lies across
+        (−1 for an owned neighbour or across impermeable planes only)."""
+        r = q[a] - q[j]
+        eta2 = f64(ETA * ETA) * f64(h * h)
+        morris = -f64(wp.dot(r, grad_W(r, h))) / (f64(wp.dot(r, r)) + eta2) * scale
+        col = j
+        s = f64(1.0)
+        c = zero
+        plane = -1
+        mat_j = material[j]
+        if j >= n:
+            g = j - n
+            col = ghost_source[g]
+            where = real(0.5) * (origin[a] + origin[col])
+            s, c, _s_m, _c_m = ghost_affine(g, ghost_source, ghost_chain, q, where, plane_axis, plane_position,
+                                            plane_sign, plane_kind, drainage, drained_lo, drained_hi,
+                                            drained_pressure, head, inflow, water_density[mat_j],
+                                            permeability[mat_j] * relative[col], gravity, water_table,
+                                            0)  # fmt: skip
+            chain = ghost_chain[g]
+            for i in range(3):
+                pl = chain[i]
+                if pl >= 0 and plane < 0:
+                    if drainage_here(pl, where, plane_axis[pl], drainage, drained_lo, drained_hi) != 0:
+                        plane = pl
+        k_a = permeability[material[a]]
+        k_j = permeability[mat_j]
+        k_pair = zero
+        if k_a + k_j > zero:
+            k_pair = f64(2.0) * k_a * k_j / (k_a + k_j) * (relative[a] + relative[col])
+        vol_a = f64(mass[a] / density[a])
+        vol_j = f64(mass[j] / density[j])
+        return col, vol_a * vol_j * k_pair * morris, s, c, plane
+
+    @wp.kernel(enable_backward=False, module="unique")
+    def assemble_flow(
+        first: int, h: real, inv_dt: f64, scale: f64, n: int, offsets: wp.array(dtype=wp.int32),
+        nbr: wp.array(dtype=wp.int32), q: wp.array(dtype=vec3), origin: wp.array(dtype=vec3),
+        mass: wp.array(dtype=real), density: wp.array(dtype=real), material: wp.array(dtype=wp.int32),
+        permeability: wp.array(dtype=f64), inv_biot: wp.array(dtype=f64), relative: wp.array(dtype=f64),
+        saturation: wp.array(dtype=f64), capacity: wp.array(dtype=f64), saturation_start: wp.array(dtype=f64),
+        porosity: wp.array(dtype=f64), p_iter: wp.array(dtype=f64), p_start: wp.array(dtype=f64),
+        ghost_source: wp.array(dtype=wp.int32), ghost_chain: wp.array(dtype=wp.vec3i),
+        plane_axis: wp.array(dtype=wp.int32), plane_position: wp.array(dtype=real), plane_sign: wp.array(dtype=real),
+        plane_kind: wp.array(dtype=wp.int32), drainage: wp.array(dtype=wp.int32), drained_lo: wp.array(dtype=vec3),
+        drained_hi: wp.array(dtype=vec3), drained_pressure: wp.array(dtype=f64), head: wp.array(dtype=f64),
+        inflow: wp.array(dtype=f64), water_density: wp.array(dtype=f64), gravity: vec3, water_table: f64,
+        dirichlet: wp.array(dtype=wp.int32), value: wp.array(dtype=f64), face_factor: wp.array(dtype=f64),
+        weight: wp.array(dtype=f64), column: wp.array(dtype=wp.int32), diag: wp.array(dtype=f64),
+        rhs: wp.array(dtype=f64),
+    ):  # fmt: skip
+        """Row a of  V_a [(θ(pᵐ) − θⁿ) + C(pᵐ)(pᵐ⁺¹ − pᵐ) + (S/Q)(pᵐ⁺¹ − pⁿ)]/Δt + Σ_b w_ab (p_a − p_b)ᵐ⁺¹ = 0
+        (θ = n S, C = n dS/dp; ``inv_dt`` = 0: the steady state); Dirichlet rows as in the projection."""
+        a = first + wp.tid()
+        mat = material[a]
+        vol_a = f64(mass[a] / density[a]) * face_factor[a]
+        d = vol_a * inv_dt * (capacity[a] + saturation[a] * inv_biot[mat])
+        b = vol_a * inv_dt * (capacity[a] * p_iter[a] - porosity[mat] * (saturation[a] - saturation_start[a])
+                              + saturation[a] * inv_biot[mat] * p_start[a])  # fmt: skip
+        for k in range(offsets[a], offsets[a + 1]):
+            col, w, s, c, _plane = flow_pair(a, nbr[k], n, h, scale, q, origin, mass, density, material,
+                                             permeability, relative, ghost_source, ghost_chain, plane_axis,
+                                             plane_position, plane_sign, plane_kind, drainage, drained_lo,
+                                             drained_hi, drained_pressure, head, inflow, water_density, gravity,
+                                             water_table)  # fmt: skip
+            w = w * face_factor[a]
+            d += w
+            b += w * c
+            coefficient = w * s
+            if dirichlet[col] == 1:
+                b += coefficient * value[col]
+                coefficient = zero
+            if dirichlet[a] == 1:
+                coefficient = zero
+            weight[k] = coefficient
+            column[k] = col
+        if dirichlet[a] == 1:
+            if d == zero:
+                d = f64(1.0)
+            b = d * value[a]
+        diag[a] = d
+        rhs[a] = b
+
+    @wp.kernel(enable_backward=False, module="unique")
+    def flow_balance(
+        first: int, h: real, inv_dt: f64, scale: f64, n: int, offsets: wp.array(dtype=wp.int32),
+        nbr: wp.array(dtype=wp.int32), q: wp.array(dtype=vec3), origin: wp.array(dtype=vec3),
+        mass: wp.array(dtype=real), density: wp.array(dtype=real), material: wp.array(dtype=wp.int32),
+        permeability: wp.array(dtype=f64), inv_biot: wp.array(dtype=f64), relative: wp.array(dtype=f64),
+        saturation: wp.array(dtype=f64), capacity: wp.array(dtype=f64), saturation_start: wp.array(dtype=f64),
+        porosity: wp.array(dtype=f64), p_iter: wp.array(dtype=f64), p_start: wp.array(dtype=f64),
+        ghost_source: wp.array(dtype=wp.int32), ghost_chain: wp.array(dtype=wp.vec3i),
+        plane_axis: wp.array(dtype=wp.int32), plane_position: wp.array(dtype=real), plane_sign: wp.array(dtype=real),
+        plane_kind: wp.array(dtype=wp.int32), drainage: wp.array(dtype=wp.int32), drained_lo: wp.array(dtype=vec3),
+        drained_hi: wp.array(dtype=vec3), drained_pressure: wp.array(dtype=f64), head: wp.array(dtype=f64),
+        inflow: wp.array(dtype=f64), water_density: wp.array(dtype=f64), gravity: vec3, water_table: f64,
+        dirichlet: wp.array(dtype=wp.int32), face_factor: wp.array(dtype=f64), tag: wp.array(dtype=wp.int32),
+        n_tags: int, p: wp.array(dtype=f64), released: wp.array(dtype=f64), discharge: wp.array(dtype=f64),
+        stored: wp.array(dtype=f64),
+    ):  # fmt: skip
+        """At the solution ``p`` of the iteration from ``p_iter``: ``released`` = the value row a's
+        equation gives with its neighbours at p (a seepage row's test: water would enter where it is
+        below the atmosphere's); for a row without a condition, ``discharge[a, tag]`` = the rate
+        [m³/s, per metre in 2D] at which it passes water to the conditioned rows and planes of each
+        tag, and ``stored`` the rate at which its water content grows."""
+        a = first + wp.tid()
+        mat = material[a]
+        vol_a = f64(mass[a] / density[a]) * face_factor[a]
+        d = vol_a * inv_dt * (capacity[a] + saturation[a] * inv_biot[mat])
+        b = vol_a * inv_dt * (capacity[a] * p_iter[a] - porosity[mat] * (saturation[a] - saturation_start[a])
+                              + saturation[a] * inv_biot[mat] * p_start[a])  # fmt: skip
+        stored[a] = d * p[a] - b
+        for t in range(n_tags):
+            discharge[a * n_tags + t] = zero
+        for k in range(offsets[a], offsets[a + 1]):
+            col, w, s, c, plane = flow_pair(a, nbr[k], n, h, scale, q, origin, mass, density, material,
+                                            permeability, relative, ghost_source, ghost_chain, plane_axis,
+                                            plane_position, plane_sign, plane_kind, drainage, drained_lo,
+                                            drained_hi, drained_pressure, head, inflow, water_density, gravity,
+                                            water_table)  # fmt: skip
+            w = w * face_factor[a]
+            neighbour = s * p[col] + c
+            d += w
+            b += w * neighbour
+            if dirichlet[a] == 0:
+                to = -1
+                if dirichlet[col] == 1:
+                    to = tag[col]
+                elif plane >= 0:
+                    to = plane
+                if to >= 0:
+                    discharge[a * n_tags + to] += w * (p[a] - neighbour)
+        released[a] = p[a]
+        if d > zero:
+            released[a] = b / d
+
+    @wp.kernel(enable_backward=False, module="unique")
+    def residual(
+        first: int, offsets: wp.array(dtype=wp.int32), weight: wp.array(dtype=f64), column: wp.array(dtype=wp.int32),
+        diag: wp.array(dtype=f64), x: wp.array(dtype=f64), rhs: wp.array(dtype=f64), out: wp.array(dtype=f64),
+        increment: wp.array(dtype=f64),
+    ):  # fmt: skip
+        """out = b − A x and a zero increment: the iteration solves A δ = b − A pᵐ, so that the solve's
+        relative tolerance applies to the change (with the storage term of a short step, pᵐ alone
+        already met it)."""
+        a = first + wp.tid()
+        out[a] = rhs[a] - apply_row(a, offsets, weight, column, diag, x)
+        increment[a] = zero
+
+    @wp.kernel(enable_backward=False, module="unique")
+    def add_increment(first: int, base: wp.array(dtype=f64), increment: wp.array(dtype=f64),
+                      out: wp.array(dtype=f64)):  # fmt: skip
+        a = first + wp.tid()
+        out[a] = base[a] + increment[a]
+
+    return dict(retention_fields=retention_fields, assemble_flow=assemble_flow, flow_balance=flow_balance,
+                residual=residual, add_increment=add_increment)  # fmt: skip
