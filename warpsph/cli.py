@@ -100,7 +100,11 @@ def _run(args) -> int:
 
     def progress(t: float, step: int) -> None:
         projection = run.solver.projection
-        solve = f", {projection.settings.solver} {projection.iterations[-1]} it" if projection else ""
+        solve = ""
+        if projection is not None and projection.iterations:
+            solve = f", {projection.settings.solver} {projection.iterations[-1]} it"
+        if run.flow is not None:
+            solve = f", Δt = {run.loop.get('dt', 0.0):.3g} s, {run.flow.iterations} iterations"
         phase = f"phase {run.phase.name} ({run.phase.kind}), " if run.staged else ""
         if run.phase.kind == "safety" and "search" in run.loop:
             phase += f"trial F = {run.loop['search']['factor']:.4g}, "

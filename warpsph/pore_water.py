@@ -16,6 +16,7 @@ import warp as wp
 
 from warpsph.physics.retention import RETENTION
 from warpsph.scene import EXTENT_TOLERANCE, STANDARD_GRAVITY, Region, Scene
+from warpsph.stages.surface_water import SurfaceWater, surface_water
 
 DRAINAGE = {"impermeable": 0, "drained": 1, "inflow": 2}
 
@@ -58,6 +59,10 @@ class PoreWaterModel:
     """(P,) vec3 upper corner of that part [m]."""
     planes: list
     """(P,) the planes' :class:`~warpsph.scene.Drainage` records (host)."""
+    reservoirs: list
+    """The scene's :class:`~warpsph.scene.Reservoir` records (host)."""
+    surface_water: SurfaceWater
+    """The water against the free surfaces: the hydrostatic reference and the reservoirs."""
 
     def drained_plane_particles(self, model, factors=None):
         """(on, value, plane): the owned particles lying on drained planes (int32 mask), their
@@ -101,8 +106,9 @@ def build_pore_water(scene: Scene, planes_drainage: list, top: float, vec3, grow
         return wp.array(np.asarray(values), dtype=dtype, device=device)
 
     nan = float("nan")
+    water_table = top if scene.pressure.water_table is None else scene.pressure.water_table
     return PoreWaterModel(
-        water_table=top if scene.pressure.water_table is None else scene.pressure.water_table,
+        water_table=water_table,
         gravity=tuple(scene.simulation.gravity),
         material_permeability=arr([m.hydraulic_conductivity / (m.water_density * STANDARD_GRAVITY) for m in mats]),
         material_inv_biot=arr([0.0 if math.isinf(m.biot_modulus) else 1.0 / m.biot_modulus for m in mats]),
@@ -119,4 +125,6 @@ def build_pore_water(scene: Scene, planes_drainage: list, top: float, vec3, grow
         plane_drained_lo=arr(np.clip(np.array([e.min for e in extents]) - grow, -big, big), vec3),
         plane_drained_hi=arr(np.clip(np.array([e.max for e in extents]) + grow, -big, big), vec3),
         planes=list(planes_drainage),
+        reservoirs=list(scene.reservoirs),
+        surface_water=surface_water(scene.simulation.gravity, water_table, scene.reservoirs, device),
     )

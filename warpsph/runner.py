@@ -176,7 +176,8 @@ class Run:
         if phase.kind == "k0":
             self._k0_procedure()
         damped = phase.kind in ("equilibrium", "safety")
-        self.solver = Solver(self.model, profile=self.profile, damping=phase.damping if damped else None)
+        self.solver = Solver(self.model, profile=self.profile, damping=phase.damping if damped else None,
+                             pore_pressure=phase.pore_pressure)  # fmt: skip
         self.scratch = self.model.state()
         self.scratch.assign(self.state)
         self.guard = Guard(self.model, phase_scene_.speed_limit)

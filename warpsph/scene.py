@@ -514,6 +514,10 @@ class Phase:
     ``"loads.top.traction" = [0, -2e4]``, ``"materials.soil.cohesion" = 5e3``."""
     reset_displacements: bool = False
     """Measure displacements from the positions at the start of this phase."""
+    pore_pressure: str = "coupled"
+    """Equilibrium, safety and dynamic with pore water: "coupled" (the pore pressure follows the
+    deformation and the flow, the projection) or "fixed" (held at the phase's start, as a drained
+    analysis under the seepage of a flow phase before; the total stress carries Bishop's χ p_w)."""
     steady: bool = False
     """Flow: solve for the steady state instead of a transient of ``duration``."""
     time_step: float = 0.0

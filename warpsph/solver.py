@@ -25,7 +25,9 @@ from warpsph.stages.collocated import RK_TABLEAU, collocated_kernels
 from warpsph.stages.corrections import FitData, compute_fit_data
 from warpsph.stages.damping import EQUILIBRIUM_VELOCITY_FILTER, LocalDamping
 from warpsph.stages.ghost_layout import GhostLayout
+from warpsph.stages.groundwater_kernels import groundwater_kernels
 from warpsph.stages.rigid import RigidRegions
+from warpsph.stages.surface_water import SurfaceWater, levels, surface_water
 from warpsph.stages.shifting import apply_shift, compute_shift
 from warpsph.stages.virtual_points import VirtualRegenerator
 from warpsph.stages.pressure import PressureProjection
@@ -43,8 +45,13 @@ class Stage:
 class Solver:
     """Advances a State by one step with the scheme the model's spec selects."""
 
-    def __init__(self, model: Model, profile: bool = False, damping: float | None = None):
+    def __init__(self, model: Model, profile: bool = False, damping: float | None = None,
+                 pore_pressure: str = "coupled"):  # fmt: skip
         self.model = model
+        self.fixed_pore_pressure = pore_pressure == "fixed" and model.pore is not None
+        """The pore pressures are held (a phase's ``pore_pressure = "fixed"``): no projection, and the
+        total stress carries Bishop's χ p_w of the state's pressures (``held_pressure``)."""
+        self.held_pressure: wp.array | None = None
         self.profile = profile
         self.stage_seconds: dict[str, float] = {}
         self.boundaries = Boundaries(model)
@@ -64,6 +71,9 @@ class Solver:
             self._init_two_set()
         else:
             self._init_collocated()
+        self._moving_reservoirs = model.pore is not None and any(
+            r.time_function.kind != "constant" for r in model.pore.reservoirs)
+        """Whether a reservoir's level changes in time (its level is then set every step)."""
         self.damping: LocalDamping | None = None
         """Local damping of an equilibrium phase (``damping`` = its coefficient α), the last stage."""
         self.velocity_filter = model.scene.simulation.velocity_filter
@@ -110,20 +120,24 @@ class Solver:
             self.virtual_p = wp.zeros(m.virtual_capacity, dtype=wp.float64, device=dev)
             self.real_to_real = NeighbourList(s, m.extent, self.support, dev, same_set=True)
             self.projection = PressureProjection(m, self)
-            self.stages.append(Stage("pressure_projection", self._project))
+            if not self.fixed_pore_pressure:
+                self.stages.append(Stage("pressure_projection", self._project))
 
     def _ghosts_two_set(self, si: State, so: State, t: float, dt: float) -> None:
         self.boundaries.set_time(t)
+        if self.model.pore is not None and self._moving_reservoirs:
+            self.model.pore.surface_water.level.assign(levels(self.model.pore.reservoirs, t))
         self.rigid.begin_step(si.particle_v, t, dt)
         self.boundaries.move_planes(si.particle_q)
         if self.layout is not None:
             self.layout.update(si)
+        pressure = self._stress_pressure(si)
         self.boundaries.update_real_ghosts(si.particle_q, si.particle_v, si.particle_stress, si.particle_density,
-                                           si.particle_pore_pressure)
+                                           pressure)
         if si.particle_plastic_strain is not None:
             self.boundaries.copy_to_real_ghosts(si.particle_plastic_strain)
         if self.projection is not None:
-            self.projection.update_ghosts(si.particle_q, si.particle_pore_pressure, homogeneous=False)
+            self.projection.update_ghosts(si.particle_q, pressure, homogeneous=False)
         self.boundaries.update_virtual_ghosts(si.virtual_q, self.virtual_v, self.virtual_stress, si.virtual_density,
                                               self.virtual_p)
 
@@ -154,9 +168,10 @@ class Solver:
                 si.particle_v, si.particle_stress, *self.real_fits.arrays(), si.virtual_q, si.virtual_density,
                 m.virtual_material, *self.virtual_fits.arrays(),
                 m.material_lambda, m.material_shear, self.virtual_v, self.virtual_stress, so.virtual_q,
-                so.virtual_density, si.particle_pore_pressure, self._water_density, self.virtual_p,
+                so.virtual_density, self._stress_pressure(si), self._water_density, self.virtual_p,
                 si.particle_plastic_strain, m.material_plasticity, self.virtual_rate,
-                real(0.0 if self.real_motion is not None else 1.0), self._surface_weight], m.device)  # fmt: skip
+                real(0.0 if self.real_motion is not None else 1.0), self._surface_weight, self._surface_water],
+               m.device)  # fmt: skip
 
     def _shifting(self, si: State, so: State, t: float, dt: float) -> None:
         """Shifts of both sets from the configuration at tⁿ: the virtual points' are applied to their
@@ -197,8 +212,8 @@ class Solver:
                 so.particle_plastic_strain, int(self.shifting), real(m.scene.simulation.particle_shifting),
                 self.real_shift,
                 own, real(m.scene.simulation.stress_filter), real(self.velocity_filter),
-                int(not m.scene.simulation.large_deformation), real(m.scene.simulation.dx), self._surface_weight],
-               m.device)  # fmt: skip
+                int(not m.scene.simulation.large_deformation), real(m.scene.simulation.dx), self._surface_weight,
+                self._surface_water], m.device)  # fmt: skip
 
     def _virtual_continuity(self, si: State, so: State, t: float, dt: float) -> None:
         """The virtual points' densities follow the motion of the real particles around them over the
@@ -211,7 +226,7 @@ class Solver:
         # the motion's ghosts as velocities (the call also refreshes the ghosts of so's stress and density,
         # which the next step's ghost stage sets anew)
         self.boundaries.update_real_ghosts(si.particle_q, self.real_motion, so.particle_stress, so.particle_density,
-                                           si.particle_pore_pressure)  # fmt: skip
+                                           self._stress_pressure(si))  # fmt: skip
         nl = self.virtual_to_real
         launch_rows(virtual_continuity, m.virtual_count,
                [real(m.h), real(dt), nl.offsets, nl.indices, si.particle_q, m.particle_mass, si.particle_density,
@@ -223,6 +238,14 @@ class Solver:
         """1 to take the weight of the soil above a surface band's point off its traction; 0 with large
         deformation, whose flows it destabilised (docs/method.md, *The weight of the soil*)."""
         return self.model.spec.real(0.0 if self.model.scene.simulation.large_deformation else 1.0)
+
+    @functools.cached_property
+    def _surface_water(self) -> SurfaceWater:
+        """The water against the free surfaces (pore water), or an empty one for dry scenes."""
+        m = self.model
+        if m.pore is not None:
+            return m.pore.surface_water
+        return surface_water(m.gravity, 0.0, [], m.device)
 
     @property
     def _water_on_surface(self):
@@ -242,8 +265,23 @@ class Solver:
         self.boundaries.set_time(t + dt)
         if self.layout is not None:
             self.layout.keep_inside(so.particle_q, so.particle_v, so.particle_stress, so.particle_density, dt)
-        self.boundaries.prescribe(so.particle_q, so.particle_v, so.particle_stress, si.particle_pore_pressure)
+        self.boundaries.prescribe(so.particle_q, so.particle_v, so.particle_stress, self._stress_pressure(si))
         self.rigid.prescribe(so.particle_v)
+
+    def _stress_pressure(self, si: State):
+        """The pore pressure the step's total stress carries: the state's, or with fixed pore pressures
+        the excess of Bishop's χ p_w, computed from the first state stepped (the pressures do not change)."""
+        if not self.fixed_pore_pressure:
+            return si.particle_pore_pressure
+        if self.held_pressure is None:
+            m, pw = self.model, self.model.pore
+            self.held_pressure = wp.clone(si.particle_pore_pressure)
+            launch_rows(groundwater_kernels(m.spec)["bishop_excess"], m.particle_count,
+                        [si.particle_q, m.particle_material, pw.material_water_density, m.spec.vec3(*pw.gravity),
+                         wp.float64(pw.water_table), pw.material_retention, pw.material_retention_alpha,
+                         pw.material_retention_n, pw.material_residual_saturation, si.particle_pore_pressure,
+                         self.held_pressure], m.device)  # fmt: skip
+        return self.held_pressure
 
     # -- collocated baseline --------------------------------------------------------------------
     def _init_collocated(self) -> None:

@@ -327,13 +327,18 @@ def validate_scene(scene: Scene) -> None:
 
 
 def _check_changing_water(scene: Scene) -> None:
-    """Reservoirs and drainage time functions act in flow phases: a scene with either needs one, and
-    drainage that changes in time may not reach a phase that would hold it constant."""
+    """Drainage time functions act in flow phases: drainage that changes in time may not reach a
+    phase that would hold it constant."""
     kinds = [p.kind for p in scene.phases] or ["dynamic"]
-    if scene.reservoirs and "flow" not in kinds:
-        raise SceneError("reservoirs", 'a reservoir acts in flow phases (kind = "flow"), and this scene has none: '
-                         "it would do nothing")  # fmt: skip
     mechanical = [k for k in kinds if k not in ("flow", "k0")]
+    coupled = [p for p in scene.phases if p.kind not in ("flow", "k0") and p.pore_pressure == "coupled"]
+    if not scene.phases and scene.effects.pore_water:
+        coupled = [Phase(name="the scene's one dynamic phase")]
+    for name, material in scene.materials.items():
+        if material.retention != "saturated" and coupled:
+            raise SceneError(f"materials.{name}.retention", "partially saturated soil moves its water in flow phases; "
+                             f"a mechanical phase with it holds the pore pressure: set pore_pressure = \"fixed\" "
+                             f"in phase {show(coupled[0].name)}")  # fmt: skip
     for section in ("boundaries", "loads"):
         for i, face in enumerate(getattr(scene, section)):
             if face.drainage.time_function.kind != "constant" and mechanical:
@@ -403,6 +408,9 @@ def _check_phases(scene: Scene) -> None:
         check_range(f"{key}.factor_tolerance", phase.factor_tolerance, Interval(0.0, 0.5, hi_closed=True))
         check_range(f"{key}.factor_max", phase.factor_max, Interval(1.0, lo_closed=True))
         check_range(f"{key}.failure_displacement", phase.failure_displacement, NON_NEGATIVE)
+        check_choice(f"{key}.pore_pressure", phase.pore_pressure, ("coupled", "fixed"))
+        if phase.pore_pressure == "fixed":
+            _needs_pore_water(f"{key}.pore_pressure", scene.effects, '"fixed" pore pressures ')
         if phase.kind == "flow":
             _check_flow_phase(phase, key, scene)
         if phase.kind == "safety" and not scene.effects.plasticity:

@@ -9,6 +9,13 @@ Terzaghi consolidation (column of height H, drained top, impermeable base, step 
 undrained state): p(ζ,t) = Σ (2p₀/M) sin(Mζ/H) exp(−M² T_v), M = π(2m+1)/2, T_v = c_v t/H², ζ the
 depth below the drained top; U(T_v) = 1 − Σ (2/M²) exp(−M² T_v).
 
+Infiltration toward the water table through a Gardner soil (Srivastava & Yeh 1991, homogeneous
+column): with K = K_s exp(−αψ) and θ − θ_r = (θ_s − θ_r) exp(−αψ), Richards' equation is linear in
+K* = K/K_s, c ∂K*/∂t = ∂²K*/∂z² + α ∂K*/∂z with c = α(θ_s − θ_r)/K_s, z the height above the water
+table (K* = 1 there) and the flux K_s (K*_z/α + K*) = q at the surface z = L. From the steady profile
+of the rate q_A, K*_A = q_A/K_s + (1 − q_A/K_s) e^(−αz), the rate turns to q_B at t = 0: K* is the
+steady profile of q_B plus e^(−αz/2) Σ a_k sin(λ_k z) exp(−(λ_k² + α²/4) t/c), tan(λ_k L) = −2λ_k/α.
+
 :func:`run_sampled` steps a scene in memory and samples it at chosen steps, timing the stepping
 apart from compilation and sampling; the accuracy studies (:mod:`warpsph.study`) measure with it.
 """
@@ -211,3 +218,32 @@ def pressure_l2(pressure, zeta, height: float, p0: float, tv: float) -> float:
     """RMS over the particles of the pore pressure [Pa] minus :func:`terzaghi_pressure`, over p₀."""
     exact = terzaghi_pressure(zeta, height, p0, tv)
     return float(np.sqrt(np.mean((np.asarray(pressure) - exact) ** 2)) / p0)
+
+
+def gardner_infiltration(z, t: float, length: float, alpha: float, storage: float, conductivity: float,
+                         rate_before: float, rate: float, terms: int = 200) -> np.ndarray:
+    """K/K_s [-] at heights ``z`` [m] above the water table, ``t`` [s] after the surface's infiltration
+    rate turned from ``rate_before`` to ``rate`` [m/s] (Srivastava & Yeh 1991, module docstring);
+    ``storage`` = θ_s − θ_r [-], α [1/m], K_s = ``conductivity`` [m/s]."""
+    z = np.asarray(z, dtype=float)
+    c = alpha * storage / conductivity
+
+    def steady(q, at):
+        return q / conductivity + (1.0 - q / conductivity) * np.exp(-alpha * at)
+
+    grid = np.linspace(0.0, length, 4001)
+    initial = np.exp(0.5 * alpha * grid) * (steady(rate_before, grid) - steady(rate, grid))
+    out = steady(rate, z)
+    for k in range(terms):  # λ_k in ((k + ½)π/L, (k + 1)π/L), by bisection
+        lo, hi = (k + 0.5) * math.pi / length, (k + 1.0) * math.pi / length
+        for _ in range(60):
+            mid = 0.5 * (lo + hi)
+            f_lo = lo * math.cos(lo * length) + 0.5 * alpha * math.sin(lo * length)
+            f_mid = mid * math.cos(mid * length) + 0.5 * alpha * math.sin(mid * length)
+            lo, hi = (lo, mid) if f_lo * f_mid <= 0.0 else (mid, hi)
+        lam = 0.5 * (lo + hi)
+        mode = np.sin(lam * grid)
+        coefficient = np.trapezoid(initial * mode, grid) / np.trapezoid(mode * mode, grid)
+        decay = math.exp(-(lam**2 + 0.25 * alpha**2) * t / c)
+        out = out + coefficient * decay * np.exp(-0.5 * alpha * z) * np.sin(lam * z)
+    return out

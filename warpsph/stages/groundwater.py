@@ -24,7 +24,7 @@ from warpsph.stages.pressure_kernels import DRAINED_SURFACE_EIGENVALUE
 
 MAX_ITERATIONS = 40
 """Picard iterations of one transient step before it is retried with half the time step."""
-STEP_CHANGE = 0.02
+STEP_CHANGE = 0.005
 """Accuracy of a transient step: the largest change of pore pressure it may make where the water
 content follows the pressure (off the held rows), as a fraction of ρ_w g times the bodies' height [-];
 a step that changes more is retried shorter, and the next step is sized from this one's change (at
@@ -92,7 +92,8 @@ class GroundwaterFlow:
         """The last step's rate of growth of the water held in the body [m³/s, per metre in 2D]."""
 
     def _excess(self) -> np.ndarray:
-        return self.state.particle_pore_pressure.numpy()[: self.model.particle_count]
+        """A host copy of the owned particles' excess pore pressure (on the CPU ``numpy()`` is a view)."""
+        return self.state.particle_pore_pressure.numpy()[: self.model.particle_count].copy()
 
     # -- conditions -----------------------------------------------------------------------------
     def _conditions(self, t: float) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:

@@ -1,7 +1,8 @@
 """Warp kernels of groundwater flow through the fixed skeleton (flow phases), float64 throughout;
 :mod:`warpsph.stages.groundwater` drives them (docs/method.md, *Groundwater flow*).
 
-Kernels: ``retention_fields`` (S, n dS/dp and k_r at every particle), ``assemble_flow`` (the rows
+Kernels: ``retention_fields`` (S, n dS/dp and k_r at every particle), ``bishop_excess`` (the pore
+pressure a mechanical phase with fixed pore pressures carries in its total stress), ``assemble_flow`` (the rows
 of one modified-Picard iteration of backward Euler on the real–real list), ``residual`` and
 ``add_increment`` (the iteration solves for its increment) and ``flow_balance`` (each row's value
 with its own condition released, the discharge into each boundary and the water stored per unit
@@ -205,6 +206,25 @@ def groundwater_kernels(spec: Spec):
             released[a] = b / d
 
     @wp.kernel(enable_backward=False, module="unique")
+    def bishop_excess(
+        first: int, q: wp.array(dtype=vec3), material: wp.array(dtype=wp.int32), water_density: wp.array(dtype=f64),
+        gravity: vec3, water_table: f64, retention: wp.array(dtype=wp.int32), alpha: wp.array(dtype=f64),
+        vg_n: wp.array(dtype=f64), residual_saturation: wp.array(dtype=f64), p: wp.array(dtype=f64),
+        out: wp.array(dtype=f64),
+    ):  # fmt: skip
+        """The excess pressure whose total is Bishop's χ p_w, χ = S_e (1 at p_w ≥ 0 and in saturated
+        soil): the pore pressure the total stress σ′ − χ p_w I carries."""
+        a = first + wp.tid()
+        mat = material[a]
+        rho_w = water_density[mat]
+        hydro = hydrostatic(q[a], rho_w, gravity, water_table)
+        total = p[a] + hydro
+        s, _slope, _kr = retention_state(retention[mat], alpha[mat], vg_n[mat], residual_saturation[mat],
+                                         rho_w * f64(wp.length(gravity)), total)  # fmt: skip
+        chi = (s - residual_saturation[mat]) / (f64(1.0) - residual_saturation[mat])
+        out[a] = chi * total - hydro
+
+    @wp.kernel(enable_backward=False, module="unique")
     def residual(
         first: int, offsets: wp.array(dtype=wp.int32), weight: wp.array(dtype=f64), column: wp.array(dtype=wp.int32),
         diag: wp.array(dtype=f64), x: wp.array(dtype=f64), rhs: wp.array(dtype=f64), out: wp.array(dtype=f64),
@@ -224,4 +244,4 @@ def groundwater_kernels(spec: Spec):
         out[a] = base[a] + increment[a]
 
     return dict(retention_fields=retention_fields, assemble_flow=assemble_flow, flow_balance=flow_balance,
-                residual=residual, add_increment=add_increment)  # fmt: skip
+                residual=residual, add_increment=add_increment, bishop_excess=bishop_excess)  # fmt: skip

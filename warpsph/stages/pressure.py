@@ -219,8 +219,8 @@ class PressureProjection:
         drained_surface = int(self.settings.free_surface == "drained")
         launch(self.k["mark_dirichlet"], n,
                [0, n, self.on_drained, self.drained_value, rf.smallest_eigenvalue, drained_surface, si.particle_q,
-                m.particle_material, pw.material_water_density, gravity, wp.float64(pw.water_table), self.dirichlet,
-                self.value, x], dev)  # fmt: skip
+                m.particle_material, pw.material_water_density, pw.surface_water, self.dirichlet, self.value, x],
+               dev)  # fmt: skip
         if not self._surface_checked:
             self._surface_checked = True
             self._warn_unstable_free_surface(si, dt)

@@ -20,6 +20,7 @@ from warpsph.sph.kernels import kernel_derivative, smoothing_functions
 from warpsph.sph.operators import fit_parts, operator_functions
 from warpsph.sph.spec import Spec
 from warpsph.stages.boundaries import plane_functions
+from warpsph.stages.surface_water import SurfaceWater, reservoir_pressure, water_against_surface
 
 DRAINED_SURFACE_EIGENVALUE = 0.6
 """Real particles whose correction eigenvalue is below this are on a free surface (≈0.5 on a flat
@@ -255,22 +256,27 @@ def pressure_kernels(spec: Spec):
     def mark_dirichlet(
         first: int, n: int, on_drained: wp.array(dtype=wp.int32), drained_value: wp.array(dtype=f64),
         eigenvalue: wp.array(dtype=real), drained_surface: int, q: wp.array(dtype=vec3),
-        material: wp.array(dtype=wp.int32), water_density: wp.array(dtype=f64), gravity: vec3, water_table: f64,
+        material: wp.array(dtype=wp.int32), water_density: wp.array(dtype=f64), surface_water: SurfaceWater,
         dirichlet: wp.array(dtype=wp.int32), value: wp.array(dtype=f64), p_start: wp.array(dtype=f64),
     ):  # fmt: skip
-        """Drained rows and their values; a drained row's unknown starts the solve at its value
-        (decoupled, it then stays there exactly)."""
+        """Drained rows and their values: drained planes' particles, free-surface particles under a
+        reservoir (at its pressure) and, with a drained free surface, the other free-surface particles
+        (at zero); a drained row's unknown starts the solve at its value (decoupled, it then stays there
+        exactly)."""
         a = first + wp.tid()
         dirichlet[a] = 0
         value[a] = zero
         if on_drained[a] == 1:
             dirichlet[a] = 1
             value[a] = drained_value[a]
-        elif drained_surface == 1 and eigenvalue[a] < real(DRAINED_SURFACE_EIGENVALUE):
+        elif eigenvalue[a] < real(DRAINED_SURFACE_EIGENVALUE):
             x = q[a]
-            dirichlet[a] = 1  # p = 0: the excess is minus the hydrostatic pressure
-            value[a] = -water_density[material[a]] * (f64(gravity[0]) * f64(x[0])
-                       + f64(gravity[1]) * (f64(x[1]) - water_table) + f64(gravity[2]) * f64(x[2]))  # fmt: skip
+            rho_w = water_density[material[a]]
+            x0, x1, x2 = f64(x[0]), f64(x[1]), f64(x[2])
+            wet, pressure = reservoir_pressure(surface_water, rho_w, x0, x1, x2)
+            if wet == 1 or drained_surface == 1:
+                dirichlet[a] = 1  # p_w = p_res (0 where dry): the excess is p_res minus the hydrostatic pressure
+                value[a] = -water_against_surface(surface_water, rho_w, x0, x1, x2)
         if dirichlet[a] == 1:
             p_start[a] = value[a]
 

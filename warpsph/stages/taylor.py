@@ -52,6 +52,7 @@ from warpsph.sph.kernels import smoothing_functions
 from warpsph.sph.operators import operator_functions
 from warpsph.sph.spec import Spec
 from warpsph.stages.shifting import shifting_kernels
+from warpsph.stages.surface_water import SurfaceWater, water_against_surface
 
 
 SURFACE_SHARE_FLOOR = 0.45
@@ -110,6 +111,13 @@ def taylor_kernels(spec: Spec):
         return gravity
 
     @wp.func
+    def point_water_density(water_density: wp.array(dtype=wp.float64), mat: int):
+        """ρ_w of material ``mat`` [kg/m³] (0 without pore water)."""
+        if wp.static(pore_water):
+            return real(water_density[mat])
+        return zero
+
+    @wp.func
     def weight_above(depth: real, n: vec3, unit_weight: vec3):
         """What the weight of the soil between a point ``depth`` [m] below a free surface of outward
         normal n and the surface adds to the point's traction σn at rest [Pa]: depth (ŵ·n)² w, with
@@ -153,6 +161,7 @@ def taylor_kernels(spec: Spec):
         src_c: wp.array(dtype=vec3), src_inv_den: wp.array(dtype=real), src_minv: wp.array(dtype=mat33),
         src_e: wp.array(dtype=vec3), in_surface_band: bool, ps: wp.array(dtype=wp.float64), mid: real,
         water_on_surface: real, per_share: bool, beyond_sources: real, unit_weight: vec3,
+        surface_water: SurfaceWater, rho_w: real,
     ):  # fmt: skip
         """Velocity, effective stress, velocity gradient G[k,j] = ∂v_j/∂x_k, divergence of the total
         stress σ′ − pI and pore pressure fitted at x from the sources; in the surface band the
@@ -225,6 +234,10 @@ def taylor_kernels(spec: Spec):
                 traction = stress_on_drained_surface(depth, n, At, s, ds0, ds1, ds2, real(p), grad_p) * n
             else:
                 traction -= weight_above(depth, n, unit_weight)
+            if wp.static(pore_water):  # the water against the surface (surface_water.py)
+                at = x + depth * n
+                traction -= real(water_against_surface(surface_water, wp.float64(rho_w), wp.float64(at[0]),
+                                                       wp.float64(at[1]), wp.float64(at[2]))) * n  # fmt: skip
             scale = one
             if per_share:
                 scale = one / wp.max(share, share_floor)
@@ -273,6 +286,7 @@ def taylor_kernels(spec: Spec):
         virt_rate: wp.array(dtype=real),
         continuity: real,
         surface_weight: real,
+        surface_water: SurfaceWater,
     ):
         """``continuity``: 1 to advance the virtual densities by the divergence fitted here, 0 when
         ``virtual_continuity`` advances them after the full step; ``surface_weight``: 1 to take the
@@ -286,7 +300,8 @@ def taylor_kernels(spec: Spec):
                                      real_stress, h, virt_fit_c[i], virt_fit_inv_den[i], virt_fit_minv[i],
                                      virt_fit_e[i], real_fit_c, real_fit_inv_den, real_fit_minv, real_fit_e,
                                      virt_fit_lambda[i] < surface_threshold, real_p, zero,
-                                     water_on_surface, False, zero, surface_weight * rho * body_force)  # fmt: skip
+                                     water_on_surface, False, zero, surface_weight * rho * body_force, surface_water,
+                                     point_water_density(water_density, mat))  # fmt: skip
         d, spin = split_velocity_gradient(G)
         hdt = half * dt
         if wp.static(pore_water):
@@ -360,6 +375,7 @@ def taylor_kernels(spec: Spec):
         surface_per_share: int,
         spacing: real,
         surface_weight: real,
+        surface_water: SurfaceWater,
     ):
         """``surface_per_share``: 1 to divide the surface term by the particle's share (off with large
         deformation, docs/method.md); ``spacing``: the lattice spacing Δx [m], the virtual points lying half
@@ -374,7 +390,8 @@ def taylor_kernels(spec: Spec):
                                             real_fit_minv[a], real_fit_e[a], virt_fit_c, virt_fit_inv_den,
                                             virt_fit_minv, virt_fit_e, real_fit_lambda[a] < surface_threshold,
                                             virt_p, half * dt, water_on_surface, surface_per_share != 0,
-                                            half * spacing, surface_weight * rho * body_force)  # fmt: skip
+                                            half * spacing, surface_weight * rho * body_force, surface_water,
+                                            point_water_density(water_density, mat))  # fmt: skip
         # gradients on the midpoint configuration (Hughes–Winget): on the configuration at tⁿ a rigid
         # rotation's v^{n+½} has the divergence −Δt ω² (a spinning disc's rim drifted outward by
         # π ωΔt R per turn), and the force of its stress at t^{n+½}, turned by ωΔt/2 since tⁿ, missed

@@ -1,0 +1,176 @@
+"""The water against free surfaces in mechanical phases (docs/method.md, *Reservoirs and free
+surfaces*): a dry drained face carries no water load wherever it lies, a reservoir's water presses on
+the faces below its level and drains into them.
+
+- A saturated block, a drained vertical free face and a slip back, brought to equilibrium: the total
+  horizontal force on the face column is zero when dry, and the water's thrust γ_w d²/2 with a
+  reservoir at the block's top against the face.
+- A saturated layer (incompressible water) under 1 m of water: the effective stress is the buoyant
+  weight γ′ z, whatever the water depth, and the pore pressure γ_w (d + z).
+"""
+
+import h5py
+import numpy as np
+import pytest
+
+from warpsph.runner import run_scene
+from warpsph.scene_toml import parse_scene
+
+BLOCK = """
+[simulation]
+dim = 2
+dx = 0.25
+gravity = [0, -9.81, 0]
+
+[effects]
+pore_water = true
+
+[materials.soil]
+density = 2000
+youngs_modulus = 2e7
+poisson_ratio = 0.3
+porosity = 0.3
+hydraulic_conductivity = 1e-4
+water_bulk_modulus = 2.2e8
+k0 = 0.5
+
+[[bodies]]
+name = "block"
+material = "soil"
+min = [0, 0, 0]
+max = [4, 4, 0]
+
+[[boundaries]]
+name = "base"
+kind = "fixed"
+axis = "y"
+position = 0
+side = "min"
+
+[[boundaries]]
+name = "back"
+kind = "slip"
+axis = "x"
+position = 0
+side = "min"
+
+[output]
+fields = ["velocity", "stress"]
+usd = false
+xdmf = false
+
+[[phases]]
+name = "initial"
+kind = "k0"
+
+[[phases]]
+name = "gravity"
+kind = "equilibrium"
+tolerance = 1e-4
+"""
+GAMMA_W = 1000.0 * 9.81
+
+
+def last_frame(out):
+    with h5py.File(out / "results.h5", "r") as f:
+        frame = f["frames"][sorted(f["frames"])[-1]]
+        return frame["position"][...], frame["stress"][...], frame["pore_pressure"][...]
+
+
+def column_force(x, stress, pore_pressure, at, dx):
+    """∫ (σ′_xx − p) dy over the particles of the column x = ``at`` [N/m] (trapezoidal)."""
+    column = np.abs(x[:, 0] - at) < 0.25 * dx
+    y = x[column, 1]
+    ends = np.isclose(y, y.min()) | np.isclose(y, y.max())
+    return float(np.sum(np.where(ends, 0.5, 1.0) * (stress[column, 0] - pore_pressure[column])) * dx)
+
+
+@pytest.mark.parametrize("level", [None, 4.0])
+def test_a_free_face_carries_the_water_that_stands_against_it(tmp_path, level):
+    text = BLOCK
+    if level is not None:
+        text += (f'\n[[reservoirs]]\nname = "river"\nlevel = {level}\n'
+                 "region = { min = [3, -1, -1], max = [5, 9, 1] }\n")
+    run_scene(parse_scene(text, name="block"), tmp_path)
+    x, stress, p = last_frame(tmp_path)
+    thrust = 0.5 * GAMMA_W * 4.0**2
+    expected = 0.0 if level is None else -thrust
+    assert column_force(x, stress, p, 4.0, 0.25) == pytest.approx(expected, abs=0.05 * thrust)
+    face = (np.abs(x[:, 0] - 4.0) < 0.05) & (x[:, 1] < 3.9)
+    wet = 0.0 if level is None else GAMMA_W * (level - x[face, 1])
+    np.testing.assert_allclose(p[face], wet, atol=1e-6 * thrust)  # the face drains to the water against it
+
+
+LAYER = """
+[simulation]
+dim = 2
+dx = 0.2
+gravity = [0, -9.81, 0]
+
+[effects]
+pore_water = true
+
+[materials.soil]
+density = 2000
+youngs_modulus = 2e7
+poisson_ratio = 0.3
+porosity = 0.3
+hydraulic_conductivity = 1e-4
+water_bulk_modulus = inf
+k0 = 0.5
+
+[[bodies]]
+name = "layer"
+material = "soil"
+min = [0, 0, 0]
+max = [1, 2, 0]
+
+[[boundaries]]
+name = "base"
+kind = "fixed"
+axis = "y"
+position = 0
+side = "min"
+
+[[boundaries]]
+name = "left"
+kind = "slip"
+axis = "x"
+position = 0
+side = "min"
+
+[[boundaries]]
+name = "right"
+kind = "slip"
+axis = "x"
+position = 1
+side = "max"
+
+[[reservoirs]]
+name = "lake"
+level = 3.0
+
+[output]
+fields = ["velocity", "stress"]
+usd = false
+xdmf = false
+
+[[phases]]
+name = "initial"
+kind = "k0"
+
+[[phases]]
+name = "gravity"
+kind = "equilibrium"
+tolerance = 1e-5
+"""
+
+
+def test_a_submerged_layer_carries_its_buoyant_weight(tmp_path):
+    run_scene(parse_scene(LAYER, name="lake"), tmp_path)
+    x, stress, p = last_frame(tmp_path)
+    depth = 2.0 - x[:, 1]
+    buoyant = (2000.0 - 1000.0) * 9.81
+    inside = depth > 0.3
+    np.testing.assert_allclose(p, GAMMA_W * (1.0 + depth), atol=5e-3 * GAMMA_W * 3.0)
+    np.testing.assert_allclose(stress[inside, 1], -buoyant * depth[inside], rtol=0.02)
