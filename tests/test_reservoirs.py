@@ -174,3 +174,32 @@ def test_a_submerged_layer_carries_its_buoyant_weight(tmp_path):
     inside = depth > 0.3
     np.testing.assert_allclose(p, GAMMA_W * (1.0 + depth), atol=5e-3 * GAMMA_W * 3.0)
     np.testing.assert_allclose(stress[inside, 1], -buoyant * depth[inside], rtol=0.02)
+
+
+def test_fixed_pore_pressures_carry_bishops_chi(tmp_path):
+    """A phase with fixed pore pressures keeps them bit for bit, and its total stress carries
+    χ p_w with χ = S_e: the held excess pressure of a particle under suction is S_e p_w − p_h."""
+    import warp as wp
+
+    from warpsph.physics.retention import retention_state
+
+    text = (BLOCK.replace("water_bulk_modulus = 2.2e8", 'water_bulk_modulus = inf\nretention = "van_genuchten"\n'
+                          "retention_alpha = 1.0\nretention_n = 2.0\nresidual_saturation = 0.2")
+            .replace("k0 = 0.5\n", "k0 = 0.5\n\n[pressure]\nwater_table = 2.0\n")
+            .replace('kind = "equilibrium"\n', 'kind = "equilibrium"\npore_pressure = "fixed"\n'))  # fmt: skip
+    from warpsph.runner import Run
+
+    run = Run(parse_scene(text, name="block"), tmp_path)
+    start = run.state.particle_pore_pressure.numpy().copy()
+    run.run()
+    assert run.records[-1].outcome == "converged"
+    np.testing.assert_array_equal(run.state.particle_pore_pressure.numpy()[: len(start)], start)
+    held = run.solver.held_pressure.numpy()[: run.model.particle_count]
+    y = run.model.particle_x0[:, 1]
+    total = GAMMA_W * (2.0 - y)  # hydrostatic about the water table at 2 m: suction above it
+    f64 = wp.float64
+    for i in np.argsort(y)[-3:]:
+        s, _slope, _kr = retention_state(1, f64(1.0), f64(2.0), f64(0.2), f64(GAMMA_W), f64(total[i]))
+        chi = (float(s) - 0.2) / 0.8
+        assert chi < 0.9
+        assert held[i] == pytest.approx(chi * total[i] - total[i], rel=1e-9)

@@ -24,9 +24,14 @@ from warpsph.stages.pressure_kernels import DRAINED_SURFACE_EIGENVALUE
 
 MAX_ITERATIONS = 40
 """Picard iterations of one transient step before it is retried with half the time step."""
+SEEPAGE_ITERATIONS = 15
+"""Iterations of a step in which seepage-face particles may be held or released; later ones keep the
+set (where the exit point lay between two particles, one was released and held in turn and the
+iteration did not converge)."""
 STEP_CHANGE = 0.005
 """Accuracy of a transient step: the largest change of pore pressure it may make where the water
-content follows the pressure (off the held rows), as a fraction of ρ_w g times the bodies' height [-];
+content follows the pressure (off the held rows and the seepage faces), as a fraction of ρ_w g times
+the bodies' height [-];
 a step that changes more is retried shorter, and the next step is sized from this one's change (at
 most 1.5 times longer)."""
 
@@ -169,22 +174,22 @@ class GroundwaterFlow:
                         dev)  # fmt: skip
             self.linear.solve(matrix, self.increment_rhs, self.increment)
             launch_rows(self.k["add_increment"], n, [self.p_iter, self.increment, p], dev)
-            new = self._excess()
-            if dt is None and relaxation < 1.0:
-                new = current + relaxation * (new - current)
-                new[dirichlet == 1] = value[dirichlet == 1]
-                p.assign(np.concatenate([new, p.numpy()[n:]]))
-            change = float(np.max(np.abs(new - current), initial=0.0))
-            flips = self._update_seepage(args, candidates, new)
+            full = self._excess()  # the iteration's own update: it conserves the water
+            change = float(np.max(np.abs(full - current), initial=0.0))
+            flips = self._update_seepage(args, candidates, full) if iteration <= SEEPAGE_ITERATIONS else 0
             self.iterations = iteration
             if change < self.tolerance and flips == 0:
                 self._record(args)
-                moved = np.abs(new - self.p_start.numpy())[(dirichlet == 0) & self._stores_water()]
+                moved = np.abs(full - self.p_start.numpy())[(dirichlet == 0) & ~candidates & self._stores_water()]
                 self.step_change = float(np.max(moved, initial=0.0)) / (STEP_CHANGE * self.scale)
                 return True
-            if dt is None and change > last_change:
+            if change > last_change:  # an iteration changing more than the one before: under-relax
                 relaxation = max(0.1, 0.5 * relaxation)
             last_change = change
+            if relaxation < 1.0:
+                relaxed = current + relaxation * (full - current)
+                relaxed[dirichlet == 1] = value[dirichlet == 1]
+                p.assign(np.concatenate([relaxed, p.numpy()[n:]]))
         self.undo()
         return False
 

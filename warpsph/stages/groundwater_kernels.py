@@ -18,7 +18,7 @@ from warpsph.sph.kernels import smoothing_functions
 from warpsph.sph.spec import Spec
 from warpsph.stages.boundaries import plane_functions
 from warpsph.stages.linear_solve import apply_row
-from warpsph.stages.pressure_kernels import ETA, pressure_kernels
+from warpsph.stages.pressure_kernels import ETA, fold_conditions, held_row, pressure_kernels
 
 
 @functools.cache
@@ -103,6 +103,22 @@ def groundwater_kernels(spec: Spec):
         vol_j = f64(mass[j] / density[j])
         return col, vol_a * vol_j * k_pair * morris, s, c, plane
 
+    @wp.func
+    def storage(
+        a: int, inv_dt: f64, mass: wp.array(dtype=real), density: wp.array(dtype=real),
+        face_factor: wp.array(dtype=f64), material: wp.array(dtype=wp.int32), inv_biot: wp.array(dtype=f64), saturation: wp.array(dtype=f64),
+        capacity: wp.array(dtype=f64), saturation_start: wp.array(dtype=f64), porosity: wp.array(dtype=f64),
+        p_iter: wp.array(dtype=f64), p_start: wp.array(dtype=f64),
+    ):  # fmt: skip
+        """(diagonal, rhs) of row a's storage: V_a [C pᵐ⁺¹ + (S/Q) pᵐ⁺¹]/Δt against
+        V_a [C pᵐ − n(S(pᵐ) − Sⁿ) + (S/Q) pⁿ]/Δt."""
+        mat = material[a]
+        vol_a = f64(mass[a] / density[a]) * face_factor[a]
+        d = vol_a * inv_dt * (capacity[a] + saturation[a] * inv_biot[mat])
+        b = vol_a * inv_dt * (capacity[a] * p_iter[a] - porosity[mat] * (saturation[a] - saturation_start[a])
+                              + saturation[a] * inv_biot[mat] * p_start[a])  # fmt: skip
+        return d, b
+
     @wp.kernel(enable_backward=False, module="unique")
     def assemble_flow(
         first: int, h: real, inv_dt: f64, scale: f64, n: int, offsets: wp.array(dtype=wp.int32),
@@ -123,11 +139,8 @@ def groundwater_kernels(spec: Spec):
         """Row a of  V_a [(θ(pᵐ) − θⁿ) + C(pᵐ)(pᵐ⁺¹ − pᵐ) + (S/Q)(pᵐ⁺¹ − pⁿ)]/Δt + Σ_b w_ab (p_a − p_b)ᵐ⁺¹ = 0
         (θ = n S, C = n dS/dp; ``inv_dt`` = 0: the steady state); Dirichlet rows as in the projection."""
         a = first + wp.tid()
-        mat = material[a]
-        vol_a = f64(mass[a] / density[a]) * face_factor[a]
-        d = vol_a * inv_dt * (capacity[a] + saturation[a] * inv_biot[mat])
-        b = vol_a * inv_dt * (capacity[a] * p_iter[a] - porosity[mat] * (saturation[a] - saturation_start[a])
-                              + saturation[a] * inv_biot[mat] * p_start[a])  # fmt: skip
+        d, b = storage(a, inv_dt, mass, density, face_factor, material, inv_biot, saturation, capacity,
+                       saturation_start, porosity, p_iter, p_start)  # fmt: skip
         for k in range(offsets[a], offsets[a + 1]):
             col, w, s, c, _plane = flow_pair(a, nbr[k], n, h, scale, q, origin, mass, density, material,
                                              permeability, relative, ghost_source, ghost_chain, plane_axis,
@@ -137,18 +150,11 @@ def groundwater_kernels(spec: Spec):
             w = w * face_factor[a]
             d += w
             b += w * c
-            coefficient = w * s
-            if dirichlet[col] == 1:
-                b += coefficient * value[col]
-                coefficient = zero
-            if dirichlet[a] == 1:
-                coefficient = zero
+            coefficient, b = fold_conditions(w * s, b, dirichlet[col], value[col], dirichlet[a])
             weight[k] = coefficient
             column[k] = col
         if dirichlet[a] == 1:
-            if d == zero:
-                d = f64(1.0)
-            b = d * value[a]
+            d, b = held_row(d, value[a])
         diag[a] = d
         rhs[a] = b
 
@@ -175,11 +181,8 @@ def groundwater_kernels(spec: Spec):
         [m³/s, per metre in 2D] at which it passes water to the conditioned rows and planes of each
         tag, and ``stored`` the rate at which its water content grows."""
         a = first + wp.tid()
-        mat = material[a]
-        vol_a = f64(mass[a] / density[a]) * face_factor[a]
-        d = vol_a * inv_dt * (capacity[a] + saturation[a] * inv_biot[mat])
-        b = vol_a * inv_dt * (capacity[a] * p_iter[a] - porosity[mat] * (saturation[a] - saturation_start[a])
-                              + saturation[a] * inv_biot[mat] * p_start[a])  # fmt: skip
+        d, b = storage(a, inv_dt, mass, density, face_factor, material, inv_biot, saturation, capacity,
+                       saturation_start, porosity, p_iter, p_start)  # fmt: skip
         stored[a] = d * p[a] - b
         for t in range(n_tags):
             discharge[a * n_tags + t] = zero

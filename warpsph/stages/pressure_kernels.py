@@ -47,6 +47,33 @@ def faded_by_draining(weight: wp.float64, draining: wp.float64) -> wp.float64:
     return weight / (wp.float64(1.0) + draining / wp.float64(DRAINING_RATIO))
 
 
+@wp.func
+def fold_conditions(coefficient: wp.float64, rhs: wp.float64, held_column: int, column_value: wp.float64,
+                    held_row: int):  # fmt: skip
+    """(weight, rhs) of a pair with the Dirichlet rows folded in: a held neighbour's value moves to the
+    right-hand side, and a held row keeps no off-diagonal weight (the matrix stays symmetric)."""
+    w = coefficient
+    b = rhs
+    if held_column == 1:
+        b += w * column_value
+        w = wp.float64(0.0)
+    if held_row == 1:
+        w = wp.float64(0.0)
+    return w, b
+
+
+@wp.func
+def held_row(diagonal: wp.float64, value: wp.float64):
+    """(diagonal, rhs) of a row held at ``value``: p = p̄ scaled by the diagonal the row would have
+    (with a unit diagonal a drained head of kPa outweighed every other row's right-hand side in ‖b‖, the
+    solve met its relative tolerance without an iteration and the pressure froze: a ponded column
+    stopped at 65-350 Pa off)."""
+    d = diagonal
+    if d == wp.float64(0.0):
+        d = wp.float64(1.0)
+    return d, d * value
+
+
 def _lattice_distances(dim: int, ratio: float) -> np.ndarray:
     """Distances from a point of the lattice of spacing 1 to the others within the support 2h (h = ratio)."""
     span = int(math.ceil(2.0 * ratio))
@@ -512,11 +539,7 @@ def pressure_kernels(spec: Spec):
                     theta = wp.max(faded_by_draining(base, draining), interior_stabilisation)
                 b -= theta * w_dt * (rough[a] - rough[col])
             coefficient = w_k * s + w_dt * s_dt  # the ghost's parities folded in: A x = diag x − Σ weight x[column]
-            if dirichlet[col] == 1:
-                b += coefficient * value[col]
-                coefficient = zero
-            if dirichlet[a] == 1:
-                coefficient = zero
+            coefficient, b = fold_conditions(coefficient, b, dirichlet[col], value[col], dirichlet[a])
             weight[k] = coefficient
             column[k] = col
         if eigenvalue[a] < exterior_threshold and lattice_sum > present:
@@ -526,12 +549,7 @@ def pressure_kernels(spec: Spec):
             d += exterior
             b += exterior * p_old[a]
         if dirichlet[a] == 1:
-            # p = p̄, scaled by the diagonal the row would have: with a unit diagonal a drained head of
-            # kPa outweighed every other row's right-hand side in ‖b‖, the solve met its relative
-            # tolerance without an iteration and the pressure froze (a ponded column stopped at 65-350 Pa off)
-            if d == zero:
-                d = f64(1.0)
-            b = d * value[a]
+            d, b = held_row(d, value[a])
         diag[a] = d
         rhs[a] = b
 
