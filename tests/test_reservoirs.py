@@ -203,3 +203,11 @@ def test_fixed_pore_pressures_carry_bishops_chi(tmp_path):
         chi = (float(s) - 0.2) / 0.8
         assert chi < 0.9
         assert held[i] == pytest.approx(chi * total[i] - total[i], rel=1e-9)
+
+
+def test_a_reservoir_beside_no_surface_is_refused_in_a_mechanical_phase(tmp_path):
+    from warpsph.errors import SceneError
+
+    text = LAYER.replace('level = 3.0\n', 'level = 3.0\nregion = { min = [5, -1, -1], max = [6, 9, 1] }\n')
+    with pytest.raises(SceneError, match=r"reservoirs.lake.region.*touches no surface"):
+        run_scene(parse_scene(text, name="lake"), tmp_path)

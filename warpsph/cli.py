@@ -132,6 +132,9 @@ def _run(args) -> int:
     if s.status == "not converged" and run.phase.kind == "safety":
         return _fail(EXIT_NOT_CONVERGED, f"phase {s.phases[-1]['name']} found no factor of safety between 0.05 and "
                      f"factor_max = {run.phase.factor_max:g}; the phases after it were not run (results in {out})")
+    if s.status == "not converged" and run.phase.kind == "flow":
+        return _fail(EXIT_NOT_CONVERGED, f"phase {s.phases[-1]['name']} did not converge within its max_steps = "
+                     f"{run.phase.max_steps}; the phases after it were not run (results in {out})")
     if s.status == "not converged":
         return _fail(EXIT_NOT_CONVERGED, f"phase {s.phases[-1]['name']} did not reach equilibrium within its "
                      f"max_steps = {run.phase.max_steps}; the phases after it were not run (results in {out})")

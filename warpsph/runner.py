@@ -591,10 +591,14 @@ class Run:
                                                                device)  # fmt: skip
             first = self.step_index
             self.loop.pop("ratio", None)
-            converged, ratio = self._equilibrate(progress, first, output=False, start=(positions, limit))
-            record.trials.append([factor, int(converged), ratio, self.step_index - first,
-                                  largest_displacement(self.state.particle_q, positions)])  # fmt: skip
-            self._write_frame(factor=factor, converged=int(converged))
+            try:
+                converged, ratio = self._equilibrate(progress, first, output=False, start=(positions, limit))
+                moved = largest_displacement(self.state.particle_q, positions)
+            except SimulationError:  # the run guard stopped the trial: a mechanism ran away, the trial failed
+                converged, ratio, moved = False, math.inf, math.inf
+            record.trials.append([factor, int(converged), ratio, self.step_index - first, moved])
+            if math.isfinite(moved):
+                self._write_frame(factor=factor, converged=int(converged))
             search.record(converged)
             for name, arr in self.state.arrays().items():
                 arr.assign(start[name])

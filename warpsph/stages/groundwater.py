@@ -14,13 +14,13 @@ from __future__ import annotations
 import numpy as np
 import warp as wp
 
-from warpsph.errors import SceneError
 from warpsph.launching import launch_rows
 from warpsph.model import Model, State
 from warpsph.scene import STANDARD_GRAVITY
 from warpsph.stages.groundwater_kernels import groundwater_kernels
 from warpsph.stages.linear_solve import LinearSolver
 from warpsph.stages.pressure_kernels import DRAINED_SURFACE_EIGENVALUE
+from warpsph.stages.surface_water import wetted_regions
 
 MAX_ITERATIONS = 40
 """Picard iterations of one transient step before it is retried with half the time step."""
@@ -60,11 +60,7 @@ class GroundwaterFlow:
         on, _val, _plane = pw.drained_plane_particles(m)
         eigen = solver.real_fits.smallest_eigenvalue.numpy()[:n]
         self.surface = (eigen < DRAINED_SURFACE_EIGENVALUE) & (on == 0)
-        self.in_reservoir = [r.region.contains(x, 1e-6 * m.dx) & self.surface for r in reservoirs]
-        for r, inside in zip(reservoirs, self.in_reservoir):
-            if not inside.any():
-                raise SceneError(f"reservoirs.{r.name}.region", "contains no free-surface particle: this water "
-                                 "touches no surface of the model")  # fmt: skip
+        self.in_reservoir = wetted_regions(reservoirs, x, self.surface, m.dx)
         self.scale = STANDARD_GRAVITY * 1000.0 * max(height, m.dx)
         """ρ_w g times the bodies' height [Pa]: the scale of the pressure changes."""
         self.tolerance = tolerance * self.scale

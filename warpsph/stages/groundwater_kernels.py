@@ -106,8 +106,9 @@ def groundwater_kernels(spec: Spec):
     @wp.func
     def storage(
         a: int, inv_dt: f64, mass: wp.array(dtype=real), density: wp.array(dtype=real),
-        face_factor: wp.array(dtype=f64), material: wp.array(dtype=wp.int32), inv_biot: wp.array(dtype=f64), saturation: wp.array(dtype=f64),
-        capacity: wp.array(dtype=f64), saturation_start: wp.array(dtype=f64), porosity: wp.array(dtype=f64),
+        face_factor: wp.array(dtype=f64), material: wp.array(dtype=wp.int32), inv_biot: wp.array(dtype=f64),
+        saturation: wp.array(dtype=f64), capacity: wp.array(dtype=f64), saturation_start: wp.array(dtype=f64),
+        porosity: wp.array(dtype=f64),
         p_iter: wp.array(dtype=f64), p_start: wp.array(dtype=f64),
     ):  # fmt: skip
         """(diagonal, rhs) of row a's storage: V_a [C pᵐ⁺¹ + (S/Q) pᵐ⁺¹]/Δt against

@@ -32,7 +32,9 @@ from warpsph.errors import SimulationError
 from warpsph.launching import launch, launch_rows
 from warpsph.model import PLANE_TRACTION, Model
 from warpsph.stages.linear_solve import LinearSolver
+from warpsph.stages.surface_water import wetted_regions
 from warpsph.stages.pressure_kernels import (
+    DRAINED_SURFACE_EIGENVALUE,
     LOW_PERMEABILITY_WEIGHT,
     faded_by_draining,
     laplacian_scale,
@@ -224,6 +226,7 @@ class PressureProjection:
         if not self._surface_checked:
             self._surface_checked = True
             self._warn_unstable_free_surface(si, dt)
+            self._check_reservoirs(si)
         args = self._plane_args()
         # the arguments of the pressure fits (``fitted_pressure``) ahead of each kernel's own
         fit_args = [h, n, nl.offsets, nl.indices, si.particle_q, m.particle_origin, m.particle_mass,
@@ -269,6 +272,14 @@ class PressureProjection:
         self.update_ghosts(si.particle_q, self.dp, homogeneous=True, momentum=True)
         self._gradient(si, self.dp, homogeneous=True, momentum=True)
         launch(self.k["correct_velocity"], n, [0, real(dt), self.grad, so.particle_density, so.particle_v], dev)
+
+    def _check_reservoirs(self, si) -> None:
+        """Refuse a reservoir whose region holds no free-surface particle: its water would do nothing."""
+        m = self.model
+        n = m.particle_count
+        surface = (self.solver.real_fits.smallest_eigenvalue.numpy()[:n] < DRAINED_SURFACE_EIGENVALUE) & (
+            self.on_drained.numpy()[:n] == 0)
+        wetted_regions(m.pore.reservoirs, si.particle_q.numpy()[:n].astype(np.float64), surface, m.dx)
 
     def _warn_unstable_free_surface(self, si, dt: float) -> None:
         """Warn once if the free surface found at the first step is less permeable than it can be

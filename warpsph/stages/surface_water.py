@@ -12,6 +12,8 @@ from __future__ import annotations
 import numpy as np
 import warp as wp
 
+from warpsph.errors import SceneError
+
 f64 = wp.float64
 
 
@@ -73,6 +75,19 @@ def surface_water(gravity, water_table: float, reservoirs: list, device) -> Surf
     w.hi = wp.array(np.array(hi), dtype=wp.vec3d, device=device)
     w.level = wp.array(np.array([r.level for r in reservoirs] or [0.0]), dtype=f64, device=device)
     return w
+
+
+def wetted_regions(reservoirs: list, positions: np.ndarray, surface: np.ndarray, dx: float) -> list:
+    """Per reservoir, the mask of the free-surface particles (``surface``, at ``positions``) inside its
+    region; a region with none raises :class:`~warpsph.errors.SceneError` (its water would do nothing)."""
+    masks = []
+    for r in reservoirs:
+        inside = r.region.contains(positions, 1e-6 * dx) & surface
+        if not inside.any():
+            raise SceneError(f"reservoirs.{r.name}.region", "contains no free-surface particle: this water touches "
+                             "no surface of the model")  # fmt: skip
+        masks.append(inside)
+    return masks
 
 
 def levels(reservoirs: list, t: float) -> np.ndarray:
