@@ -376,12 +376,12 @@ class Load(_OnPlane):
 
 @dataclass
 class Reservoir:
-    """A body of free water standing against the model's free surfaces (flow phases).
+    """A body of free water standing against the model's free surfaces (pore_water effect).
 
     The free-surface particles inside ``region`` and below the water's level y = ``level`` × f(t) [m]
-    take its pore pressure ρ_w g (level − y); every other free-surface particle is a seepage face,
-    where water leaves once its pore pressure would exceed the atmosphere's and none enters
-    (docs/scenes.md, *Groundwater flow*).
+    take its pore pressure ρ_w g (level − y) and, in mechanical phases, carry it as a total traction;
+    in flow phases every other free-surface particle is a seepage face, where water leaves once its
+    pore pressure would exceed the atmosphere's and none enters (docs/scenes.md, *Groundwater flow*).
     """
 
     name: str = "reservoir"
@@ -550,7 +550,7 @@ class Scene:
     pressure: PressureSolver = field(default_factory=PressureSolver)
     output: Output = field(default_factory=Output)
     reservoirs: list[Reservoir] = field(default_factory=list)
-    """Free water against the free surfaces (flow phases)."""
+    """Free water against the free surfaces."""
     phases: list[Phase] = field(default_factory=list)
     """Staged analysis: the phases in order; none runs one dynamic phase to ``simulation.end_time``."""
     source_text: str = ""
