@@ -31,7 +31,7 @@ def test_a_flood_lowers_the_dykes_factor_of_safety(tmp_path):
     results = warpsph.load_results(tmp_path / "results.h5")
     _t, p = results.series("pore_pressure_under_landward_slope")
     assert p[-1] > p[0] + 5e3  # the seepage raised it by more than half a metre of water
-    flows = {name: results.series(name)[1] for name in results.series_names() if name.startswith("discharge_")}
+    flows = {name: results.series(name)[1] for name in results.series_names if name.startswith("discharge_")}
     stored = results.series("storage_rate")[1]
     out = sum(flows.values())
     np.testing.assert_allclose(-out[-1], stored[-1], rtol=1e-5, atol=1e-9 * abs(flows["discharge_river"][-1]))
