@@ -19,7 +19,6 @@ from warpsph.model import Model, State
 from warpsph.scene import STANDARD_GRAVITY
 from warpsph.stages.groundwater_kernels import groundwater_kernels
 from warpsph.stages.linear_solve import LinearSolver
-from warpsph.stages.pressure_kernels import DRAINED_SURFACE_EIGENVALUE
 from warpsph.stages.surface_water import wetted_regions
 
 MAX_ITERATIONS = 40
@@ -52,14 +51,13 @@ class GroundwaterFlow:
         self.lists = solver.real_to_real
         self.reservoirs = reservoirs
         self.planes = pw.planes
-        x = m.particle_x0
+        x = state.particle_q.numpy()[:n].astype(np.float64)  # the fixed skeleton's positions
         rho_w = pw.material_water_density.numpy()[m.particle_material.numpy()[:n]]
         self.rho_g = rho_w * float(np.linalg.norm(pw.gravity))
         self.hydro = pw.hydrostatic(x, rho_w)
+        """p_h at the particles [Pa], as the kernels take it (at their current positions)."""
         self.y = x[:, 1]
-        on, _val, _plane = pw.drained_plane_particles(m)
-        eigen = solver.real_fits.smallest_eigenvalue.numpy()[:n]
-        self.surface = (eigen < DRAINED_SURFACE_EIGENVALUE) & (on == 0)
+        self.surface = self.projection.free_surface_particles()
         self.in_reservoir = wetted_regions(reservoirs, x, self.surface, m.dx)
         self.scale = STANDARD_GRAVITY * 1000.0 * max(height, m.dx)
         """ρ_w g times the bodies' height [Pa]: the scale of the pressure changes."""

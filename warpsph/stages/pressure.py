@@ -32,7 +32,6 @@ from warpsph.errors import SimulationError
 from warpsph.launching import launch, launch_rows
 from warpsph.model import PLANE_TRACTION, Model
 from warpsph.stages.linear_solve import LinearSolver
-from warpsph.stages.surface_water import wetted_regions
 from warpsph.stages.pressure_kernels import (
     DRAINED_SURFACE_EIGENVALUE,
     LOW_PERMEABILITY_WEIGHT,
@@ -41,6 +40,7 @@ from warpsph.stages.pressure_kernels import (
     lattice_morris_sum,
     pressure_kernels,
 )
+from warpsph.stages.surface_water import wetted_regions
 
 STABLE_SURFACE_RATIO = {"drained": 0.015, "impermeable": 0.01}
 """k ρ/Δt (the Darcy part of the projection's Laplacian over its Δt/ρ part) from which a free surface
@@ -95,7 +95,7 @@ class PressureProjection:
         self.near_surface = wp.zeros(n, dtype=wp.int32, device=dev)
         self.linear = LinearSolver(n, dev, settings)
         self.weight = self.column = None
-        on, val = self._drained_plane_particles()
+        on, val, _plane = m.pore.drained_plane_particles(m)
         self.on_drained = wp.array(on, dtype=wp.int32, device=dev)
         self.face_factor = wp.array(self._face_factor(), dtype=f64, device=dev)
         image = self._momentum_image(on)
@@ -157,11 +157,6 @@ class PressureProjection:
             if on_drained[a] == 0 and np.any(kinds[planes[planes >= 0]] == PLANE_TRACTION):
                 image[a] = 0.0
         return image
-
-    def _drained_plane_particles(self):
-        """Owned particles lying on drained planes and their prescribed excess pressure (host)."""
-        on, val, _plane = self.model.pore.drained_plane_particles(self.model)
-        return on, val
 
     def _plane_args(self):
         m, pw, b = self.model, self.model.pore, self.solver.boundaries
@@ -273,13 +268,18 @@ class PressureProjection:
         self._gradient(si, self.dp, homogeneous=True, momentum=True)
         launch(self.k["correct_velocity"], n, [0, real(dt), self.grad, so.particle_density, so.particle_v], dev)
 
+    def free_surface_particles(self) -> np.ndarray:
+        """Mask of the owned particles on a free surface (correction eigenvalue below
+        DRAINED_SURFACE_EIGENVALUE at the last fit), drained planes' particles aside (host)."""
+        n = self.model.particle_count
+        eigenvalue = self.solver.real_fits.smallest_eigenvalue.numpy()[:n]
+        return (eigenvalue < DRAINED_SURFACE_EIGENVALUE) & (self.on_drained.numpy()[:n] == 0)
+
     def _check_reservoirs(self, si) -> None:
         """Refuse a reservoir whose region holds no free-surface particle: its water would do nothing."""
         m = self.model
-        n = m.particle_count
-        surface = (self.solver.real_fits.smallest_eigenvalue.numpy()[:n] < DRAINED_SURFACE_EIGENVALUE) & (
-            self.on_drained.numpy()[:n] == 0)
-        wetted_regions(m.pore.reservoirs, si.particle_q.numpy()[:n].astype(np.float64), surface, m.dx)
+        positions = si.particle_q.numpy()[: m.particle_count].astype(np.float64)
+        wetted_regions(m.pore.reservoirs, positions, self.free_surface_particles(), m.dx)
 
     def _warn_unstable_free_surface(self, si, dt: float) -> None:
         """Warn once if the free surface found at the first step is less permeable than it can be
