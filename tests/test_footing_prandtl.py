@@ -27,8 +27,8 @@ PRANDTL = (2.0 + math.pi) * COHESION
 END_TIME = {0.1: 1.5, 0.025: 1.55}
 """Shorter runs [s]: the footing edge's corner mode (its edge particles and the free surface beside
 them) blows the run up at 1.66 s (31 mm) at Δx = 0.025 m; at Δx = 0.1 m the footing's pressure breaks
-down from 1.55 s (27 mm; 40.5 kPa at 1.48 s, 14 at 1.66 s, then the run blows up at 1.77 s), found in
-session 16 with the share's floor at 0.45 and at 0.625 alike; docs/method.md, "Known limits"."""
+down from 1.55 s (27 mm; 40.5 kPa at 1.48 s, 14 at 1.66 s, then the run blows up at 1.77 s), with the
+share's floor at 0.45 and at 0.625 alike; docs/method.md, "Known limits"."""
 
 
 @pytest.fixture(scope="module")
@@ -57,15 +57,16 @@ def plateaus(tmp_path_factory):
     return get
 
 
+@pytest.mark.slow
 def test_footing_plateau_is_prandtl(plateaus):
-    """The shipped scene (Δx = 1/24 m): 4.983 c_u measured (session 16), about 3.5 min on one core."""
+    """The shipped scene (Δx = 1/24 m): 4.983 c_u measured, about 5 min on one core."""
     assert plateaus() == pytest.approx(PRANDTL, rel=0.05)
 
 
 @pytest.mark.slow
 def test_footing_plateau_under_refinement(plateaus):
     """Halving Δx twice moves the plateau toward (2 + π) c_u from below, to within 5 % at Δx = 0.025 m
-    (measured, session 16: 4.04, 4.90 and 5.06 c_u at Δx = 0.1, 0.05 and 0.025 m, the shipped 1/24 m
+    (measured: 4.04, 4.90 and 5.06 c_u at Δx = 0.1, 0.05 and 0.025 m, the shipped 1/24 m
     between with 4.98; about 10 min on 2 cores)."""
     coarse, fine, finest = plateaus(0.1), plateaus(0.05), plateaus(0.025)
     assert coarse < fine < plateaus() < finest < PRANDTL

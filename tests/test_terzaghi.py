@@ -33,8 +33,10 @@ def test_closed_form_check_values():
     assert terzaghi_pressure(zeta, 1.0, 1.0, 0.1) == pytest.approx([0.3452, 0.6286, 0.8185, 0.9191, 0.9493], abs=1e-4)
 
 
+@pytest.mark.slow
 def test_parameter_set_a(scenes_dir, tmp_path):
-    """The shipped scenes/terzaghi.toml to T_v = 0.5 (45 000 steps), frames at T_v = 0.1, 0.3, 0.5."""
+    """The shipped scenes/terzaghi.toml to T_v = 0.5 (45 000 steps, about 3.5 min), frames at T_v = 0.1,
+    0.3, 0.5."""
     scene = load_scene(scenes_dir / "terzaghi.toml")
     scene.output.usd = False
     material, height = scene.materials["soil"], 10.0
