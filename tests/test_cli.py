@@ -17,8 +17,24 @@ def warpsph(*args, cwd=None):
 
 
 def test_validate_shipped_scene(scenes_dir, capsys):
+    assert main(["validate", str(scenes_dir / "wave_column.toml"), "--no-estimate"]) == 0
+    assert capsys.readouterr().out.strip().splitlines() == [f"{scenes_dir / 'wave_column.toml'}: valid scene "
+                                                            "'wave_column' (2D, 1 bodies)"]  # fmt: skip
+
+
+def test_validate_estimates_the_run(scenes_dir, tmp_path, capsys):
+    """Particles, time step, steps, run time measured on this machine and output size; a run of
+    more than 1e7 steps is warned of (a unit typed wrong), by validate and by run."""
     assert main(["validate", str(scenes_dir / "wave_column.toml")]) == 0
-    assert "valid scene 'wave_column'" in capsys.readouterr().out
+    out = capsys.readouterr().out
+    assert "404 particles, 300 virtual points, dt = 0.0003571 s" in out
+    assert "197 steps, 15 frames: about " in out and "ms per step measured" in out and "MB of output" in out
+    long = tmp_path / "long.toml"
+    long.write_text((scenes_dir / "wave_column.toml").read_text().replace("end_time = 0.07", "end_time = 5000.0"))
+    assert main(["validate", str(long)]) == 0
+    assert "warning: 14,002,801 steps, more than 10,000,000" in capsys.readouterr().out
+    assert main(["run", str(long), "--out", str(tmp_path / "out"), "--end-time", "0.001", "--no-progress"]) == 0
+    assert "warning: 14,002,801 steps" in capsys.readouterr().err
 
 
 @pytest.mark.parametrize("text, key", [

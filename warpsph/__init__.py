@@ -31,6 +31,10 @@ def __getattr__(name):
     raise AttributeError(name)
 
 
+def __dir__():
+    return sorted(set(globals()) | set(__all__))
+
+
 __all__ = ["Body", "Boundary", "Effects", "InputError", "Load", "Material", "Output", "Probe", "Region", "Run",
            "Scene", "SceneError", "Simulation", "SimulationError", "Solver", "TimeFunction", "build",
            "load_results", "load_scene", "parse_scene", "run_scene"]  # fmt: skip

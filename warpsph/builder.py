@@ -16,7 +16,7 @@ import warp as wp
 from warpsph.fields import voigt_to_tensor
 from warpsph.initial_stress import geostatic_stress, geostatic_unit_weight
 from warpsph.lattice import fill_body, fill_cells, lattice_keys
-from warpsph.environment import default_device
+from warpsph.environment import default_device, init_warp
 from warpsph.model import PLANE_FIXED, PLANE_SLIP, PLANE_TRACTION, PLANE_VELOCITY, Model, State
 from warpsph.physics.plasticity import material_struct, viscoplastic_material
 from warpsph.pore_water import build_pore_water
@@ -136,6 +136,7 @@ def _check_drained_planes(scene: Scene, planes, on_plane: np.ndarray, points: np
 def build(scene: Scene, device: str | None = None, precision: str | None = None) -> tuple[Model, State]:
     """Turn a validated ``scene`` into a Model and its initial State on ``device`` (default:
     :func:`~warpsph.launching.default_device`)."""
+    init_warp()
     device = device or default_device()
     spec = Spec.from_scene(scene, precision)
     sim = scene.simulation

@@ -1,9 +1,11 @@
 """Command line: ``warpsph run SCENE``, ``warpsph validate SCENE`` and ``warpsph study STUDY``.
 
-Exit codes: 0 success, 1 the run went unstable (its output up to then is kept), 2 a bad scene or
-bad arguments (one line on stderr, never a traceback), 3 an equilibrium phase did not converge
-within its step cap, or a safety phase found no bracket of its factor of safety (its output is kept;
-the phases after it were not run).
+Exit codes (every failure is one line on stderr, never a traceback): 0 success, 1 the run went
+unstable (its output up to then is kept), 2 a bad scene or bad arguments, 3 an equilibrium phase did
+not converge within its step cap, or a safety phase found no bracket of its factor of safety (its
+output is kept; the phases after it were not run), 4 the output could not be written (the run
+directory is read-only, the disk is full; the last checkpoint is kept), 5 the device is not one of
+this machine's, 130 interrupted by SIGINT (Ctrl-C) or SIGTERM (checkpointed: ``--resume`` continues).
 """
 
 from __future__ import annotations
@@ -13,15 +15,16 @@ import sys
 from pathlib import Path
 
 from warpsph.environment import default_device
-from warpsph.errors import InputError, SceneError, SimulationError, one_line
+from warpsph.errors import DeviceError, InputError, OutputError, SceneError, SimulationError, one_line
 from warpsph.study import command as study_command
 
-EXIT_UNSTABLE, EXIT_BAD_INPUT, EXIT_NOT_CONVERGED = 1, 2, 3
+EXIT_UNSTABLE, EXIT_BAD_INPUT, EXIT_NOT_CONVERGED, EXIT_OUTPUT, EXIT_DEVICE, EXIT_INTERRUPTED = 1, 2, 3, 4, 5, 130
 
 
 def _parser() -> argparse.ArgumentParser:
     p = argparse.ArgumentParser(prog="warpsph", description="Two-set Taylor-SPH for soils, on NVIDIA Warp.",
                                 formatter_class=argparse.ArgumentDefaultsHelpFormatter)  # fmt: skip
+    p.add_argument("--version", action="version", version=_version())
     sub = p.add_subparsers(dest="command", required=True)
     run = sub.add_parser("run", help="run a scene", formatter_class=argparse.ArgumentDefaultsHelpFormatter)
     run.add_argument("scene", type=Path, help="scene file (TOML, see docs/scenes.md)")
@@ -33,30 +36,29 @@ def _parser() -> argparse.ArgumentParser:
     run.add_argument("--precision", choices=("float32", "float64"), default=None,
                      help="override the scene's simulation.precision")
     run.add_argument("--resume", action="store_true", help="continue from the run directory's checkpoint")
+    run.add_argument("--overwrite", action="store_true", help="replace the output of an earlier run in the run "
+                     "directory")  # fmt: skip
     run.add_argument("--no-progress", action="store_true", help="no progress bar")
     val = sub.add_parser("validate", help="check a scene without running it")
     val.add_argument("scene", type=Path, help="scene file (TOML)")
+    val.add_argument("--device", default=default_device(), help="Warp device the estimate is measured on")
+    val.add_argument("--no-estimate", action="store_true", help="check the scene only: build nothing, time nothing")
     study_command.add_parser(sub)
     return p
 
 
-def _init_warp():
-    """Import and initialise Warp with its start-up chatter silenced: the native "no CUDA driver"
-    warning goes to stderr, which a CPU run keeps for its own one-line errors."""
-    import os
+def _version() -> str:
+    """``warpsph X (warp-lang Y, Python Z)``, read without importing Warp."""
+    import platform
+    from importlib.metadata import PackageNotFoundError, version
 
-    import warp as wp
+    from warpsph import __version__
 
-    wp.config.log_level = wp.LOG_WARNING
-    saved = os.dup(2)
     try:
-        with open(os.devnull, "w") as null:
-            os.dup2(null.fileno(), 2)
-            wp.init()
-    finally:
-        os.dup2(saved, 2)
-        os.close(saved)
-    return wp
+        warp = version("warp-lang")
+    except PackageNotFoundError:
+        warp = "not installed"
+    return f"warpsph {__version__} (warp-lang {warp}, Python {platform.python_version()})"
 
 
 def _fail(code: int, message: str) -> int:
@@ -69,6 +71,12 @@ def _validate(args) -> int:
 
     scene = load_scene(args.scene)
     print(f"{args.scene}: valid scene '{scene.name}' ({scene.simulation.dim}D, {len(scene.bodies)} bodies)")
+    if not args.no_estimate:
+        from warpsph.environment import check_device
+        from warpsph.planning import plan
+
+        for line in plan(scene, check_device(args.device)).lines():
+            print(f"  {line}")
     return 0
 
 
@@ -78,19 +86,20 @@ def _run(args) -> int:
     scene = load_scene(args.scene)
     if args.end_time is not None and not args.end_time > 0:
         raise SceneError("--end-time", f"must be > 0, got {args.end_time}")
-    wp = _init_warp()
-    if args.device.startswith("cuda"):
-        if not wp.is_cuda_available():
-            return _fail(EXIT_BAD_INPUT, f"--device {args.device}: no CUDA device is available")
     from tqdm import tqdm
 
     from warpsph.runner import Run
 
     out = args.out or Path("runs") / scene.name
     run = Run(scene, out, device=args.device, precision=args.precision, end_time=args.end_time,
-              resume=args.resume)  # fmt: skip
+              resume=args.resume, overwrite=args.overwrite)  # fmt: skip
     print(f"{scene.name}: {run.model.particle_count} particles, {run.model.virtual_count} virtual points, "
           f"dt = {run.dt:.4g} s, output in {out}")  # fmt: skip
+    from warpsph.planning import count_steps
+
+    for note in count_steps(scene)[3]:
+        if note.startswith("warning"):
+            print(f"warpsph: {note}", file=sys.stderr)
     interactive = sys.stderr.isatty()
     total = None if run.staged else run.end_time
     bar = tqdm(total=total, initial=run.time, unit="s", disable=args.no_progress,
@@ -129,6 +138,10 @@ def _run(args) -> int:
     print(f"done: {s.steps} steps to t = {s.final_time:.6g} s in {s.wall_seconds:.2f} s "
           f"({s.particle_steps_per_second:.3g} particle-steps/s), compile {s.compile_seconds:.2f} s, "
           f"{s.frames} frames")  # fmt: skip
+    if s.status == "interrupted":
+        return _fail(EXIT_INTERRUPTED, s.message)
+    print(f"results in {out}: results.h5 (warpsph.load_results), results.xdmf (ParaView's XDMF Reader)"
+          + (", particles.usdc (usdview, Omniverse)" if scene.output.usd else ""))
     if s.status == "not converged" and run.phase.kind == "safety":
         return _fail(EXIT_NOT_CONVERGED, f"phase {s.phases[-1]['name']} found no factor of safety between 0.05 and "
                      f"factor_max = {run.phase.factor_max:g}; the phases after it were not run (results in {out})")
@@ -145,12 +158,18 @@ def main(argv: list[str] | None = None) -> int:
     args = _parser().parse_args(argv)
     try:
         return {"validate": _validate, "run": _run, "study": study_command.main}[args.command](args)
+    except DeviceError as e:
+        return _fail(EXIT_DEVICE, str(e))
     except SceneError as e:
         return _fail(EXIT_BAD_INPUT, f"{getattr(args, 'scene', '')}: {e}")
     except (FileNotFoundError, InputError) as e:
         return _fail(EXIT_BAD_INPUT, str(e))
     except SimulationError as e:
         return _fail(EXIT_UNSTABLE, str(e))
+    except OutputError as e:
+        return _fail(EXIT_OUTPUT, str(e))
+    except KeyboardInterrupt:
+        return _fail(EXIT_INTERRUPTED, "interrupted")
 
 
 if __name__ == "__main__":

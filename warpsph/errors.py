@@ -32,3 +32,11 @@ class SceneError(InputError):
 
 class SimulationError(RuntimeError):
     """A run went unstable or could not continue (NaN, infinity, speed beyond the scene's bound)."""
+
+
+class OutputError(RuntimeError):
+    """The run could not write its output (a directory it may not write, a full disk)."""
+
+
+class DeviceError(InputError):
+    """The Warp device asked for is not one Warp knows, or is not on this machine."""

@@ -11,6 +11,9 @@ from __future__ import annotations
 
 import json
 import math
+import os
+import signal
+import threading
 import platform
 import time
 import warnings
@@ -22,9 +25,11 @@ import warp as wp
 
 import warpsph
 from warpsph.builder import build, plastic_materials
-from warpsph.errors import InputError, SimulationError
+from warpsph.environment import check_device, default_device
+from warpsph.errors import InputError, OutputError, SimulationError
 from warpsph.fields import tensor_to_voigt
 from warpsph.io import ResultsWriter, UsdParticleCache, load_checkpoint, save_checkpoint, write_xdmf
+from warpsph.io.run_directory import RunDirectory, first_difference, scene_record
 from warpsph.initial_stress import geostatic_stress, geostatic_unit_weight
 from warpsph.model import PLANE_TRACTION, Model, State
 from warpsph.phase_state import ParticleIds, carry_state
@@ -59,8 +64,12 @@ class RunSummary:
     frames: int = 0
     stage_seconds: dict = field(default_factory=dict)
     status: str = ""
-    """"finished", "stopped" (at ``--end-time``), "not converged" (an equilibrium phase reached its
-    step cap: the phases after it are not run) or "failed"."""
+    """"finished", "stopped" (at ``--end-time``), "interrupted" (by SIGINT or SIGTERM, checkpointed to
+    resume), "not converged" (an equilibrium phase reached its step cap: the phases after it are not
+    run) or "failed"."""
+    message: str = ""
+    """What stopped a run that did not finish (an interruption, an instability, an output error),
+    and where its checkpoint is."""
     phases: list = field(default_factory=list)
     """One {name, kind, outcome, criterion, steps} per phase run."""
 
@@ -115,10 +124,22 @@ class Run:
     (one dynamic phase to the end time for a scene without phases; docs/scenes.md, *Phases*)."""
 
     def __init__(self, scene: Scene, out_dir, *, device: str | None = None, precision: str | None = None,
-                 end_time: float | None = None, resume: bool = False, profile: bool = False):  # fmt: skip
+                 end_time: float | None = None, resume: bool = False, overwrite: bool = False,
+                 profile: bool = False):  # fmt: skip
         self.scene = scene
         self.out = Path(out_dir)
-        self.out.mkdir(parents=True, exist_ok=True)
+        check_device(device or default_device())
+        self.directory = RunDirectory(self.out, resume=resume, overwrite=overwrite)
+        try:
+            self._start(scene, device, precision, end_time, resume, profile)
+        except OSError as e:
+            self.directory.release()
+            raise OutputError(f"cannot write the run's output in {self.out}: {e.strerror or e}") from None
+        except BaseException:
+            self.directory.release()
+            raise
+
+    def _start(self, scene, device, precision, end_time, resume, profile) -> None:
         self.device, self.precision, self.profile = device, precision, profile
         self.phases = default_phases(scene)
         self.staged = bool(scene.phases)
@@ -131,6 +152,9 @@ class Run:
         self.phase_start_step, self.phase_start_time, self.dt = 0, 0.0, 0.0
         self.checkpoint_step = None  # step of the last checkpoint written or resumed from
         self.resumed = False
+        self.interrupted: str | None = None
+        """The signal (SIGINT, SIGTERM) that asked the run to stop: it stops at the next step a
+        checkpoint resumes from bit-identical, and checkpoints there."""
         self.loop: dict = {}
         """Loop state of the current phase that a checkpoint keeps (the last ratio, the peak energy)."""
         ck = None
@@ -138,6 +162,11 @@ class Run:
             ck = load_checkpoint(self.out / CHECKPOINT)
         elif resume:
             raise InputError(f"--resume: no {CHECKPOINT} in {self.out}")
+        if ck is not None and "scene_record" in ck.meta:
+            changed = first_difference(json.loads(ck.meta["scene_record"]), scene_record(scene))
+            if changed is not None:
+                raise InputError(f"--resume: {changed} differs from the scene the checkpoint was written with (a "
+                                 "resumed run may change only its output and simulation.end_time)")  # fmt: skip
         phase_index = int(ck.meta.get("phase", 0)) if ck is not None else 0
         self.phase_index, self.flow = 0, None
         if not 0 <= phase_index < len(self.phases):
@@ -146,6 +175,7 @@ class Run:
         if ck is not None:
             self._restore(ck)
         start_step = self.step_index if self.resumed else None
+        self._scene_record = json.dumps(scene_record(scene))
         self.results = ResultsWriter(self.out / RESULTS, dim=scene.simulation.dim, scene_text=scene.source_text,
                                      particle_ids=self.model.particle_ids, warpsph_version=warpsph.__version__,
                                      resume_step=start_step)  # fmt: skip
@@ -259,7 +289,7 @@ class Run:
         save_checkpoint(self.out / CHECKPOINT, step=self.step_index, time=self.time, arrays=arrays,
                         meta={"time_step": self.dt, "scene": self.scene.name, "precision": self.model.spec.precision,
                               "phase": self.phase_index, "phases": json.dumps([asdict(r) for r in self.records]),
-                              "loop": json.dumps(self.loop)})  # fmt: skip
+                              "loop": json.dumps(self.loop), "scene_record": self._scene_record})  # fmt: skip
 
     # -- output -----------------------------------------------------------------------------------
     def _sample_probes(self, fields=None) -> None:
@@ -337,7 +367,12 @@ class Run:
                 "iterations_max": int(its.max()), "residual_max": float(np.max(projection.residuals)),
                 "missed_tolerance": projection.failures, "free_surface_warning": projection.surface_warning,
             }  # fmt: skip
-        (self.out / RECORD).write_text(json.dumps(record, indent=2, default=str))
+        tmp = self.out / (RECORD + ".tmp")
+        try:
+            tmp.write_text(json.dumps(record, indent=2, default=str))
+            os.replace(tmp, self.out / RECORD)
+        finally:
+            tmp.unlink(missing_ok=True)
 
     # -- one step ---------------------------------------------------------------------------------
     def _warm_up(self) -> None:
@@ -437,6 +472,7 @@ class Run:
                 progress(self.time, self.step_index)
             if at_rest:
                 return AT_REST
+            self._stop_if_interrupted()
         return outcome
 
     def _run_flow(self, progress) -> str:
@@ -462,6 +498,7 @@ class Run:
             t = self.phase_time
             if t >= stop:
                 return STOPPED
+            self._stop_if_interrupted()
             target = float(frame_times[np.searchsorted(frame_times, t * (1.0 + 1e-12) + 1e-300, side="right")])
             step = min(dt, target - t)
             if self.step_index - self.phase_start_step >= phase.max_steps:
@@ -564,6 +601,20 @@ class Run:
                 if stopped and not (converged or capped):
                     raise _Stopped()
                 return converged, ratio
+            if k % CHECK_EVERY == 0:  # where a checkpoint resumes bit-identical (a safety trial keeps none)
+                self._stop_if_interrupted(checkpoint=output)
+
+    def _stop_if_interrupted(self, checkpoint: bool = True) -> None:
+        """After SIGINT or SIGTERM: checkpoint this step (unless told not to) and stop the run."""
+        if self.interrupted is not None:
+            if checkpoint:
+                self._checkpoint()
+            raise _Interrupted()
+
+    def _on_signal(self, signum, frame) -> None:
+        if self.interrupted is not None:  # a second signal: stop at once
+            raise KeyboardInterrupt
+        self.interrupted = signal.Signals(signum).name
 
     def _run_equilibrium(self, progress) -> str:
         converged, ratio = self._equilibrate(progress, self.phase_start_step)
@@ -624,6 +675,9 @@ class Run:
         """
         status, message = "failed", ""
         start = time.perf_counter()
+        handlers = {}
+        if threading.current_thread() is threading.main_thread():
+            handlers = {sig: signal.signal(sig, self._on_signal) for sig in (signal.SIGINT, signal.SIGTERM)}
         try:
             self._warm_up()
             start = time.perf_counter()
@@ -655,23 +709,42 @@ class Run:
                 start += time.perf_counter() - compile_before
                 self._write_frame()
                 self._checkpoint()
-        except _Stopped:
-            status = "stopped"
+        except (_Stopped, _Interrupted) as e:
+            status = "interrupted" if isinstance(e, _Interrupted) else "stopped"
+            if status == "interrupted":
+                message = (f"interrupted by {self.interrupted} at step {self.step_index}, t = {self.time:.6g} s; the "
+                           f"checkpoint of step {self.checkpoint_step} and the frames written are kept in {self.out} "
+                           "(continue with --resume)")  # fmt: skip
             self.records[-1].last_step, self.records[-1].end_time = self.step_index, self.time
             self.records[-1].outcome = STOPPED
         except SimulationError as e:
             message = str(e)
             raise
+        except KeyboardInterrupt:
+            status, message = "interrupted", f"interrupted at step {self.step_index}, t = {self.time:.6g} s"
+            raise
+        except OSError as e:
+            status = "failed"
+            message = f"cannot write the run's output in {self.out}: {e.strerror or e}"
+            raise OutputError(f"{message}; the last checkpoint (step {self.checkpoint_step}) is kept") from None
         finally:
+            for sig, handler in handlers.items():
+                signal.signal(sig, handler)
             wp.synchronize_device(self.model.device)
             self.summary.wall_seconds = time.perf_counter() - start
             self.summary.final_step, self.summary.final_time = self.step_index, self.time
             self.summary.stage_seconds = dict(self.solver.stage_seconds)
-            self.summary.status = status
-            if self.staged:
-                self.results.write_phases([asdict(r) for r in self.records])
-            self.results.close()
-            self._write_record(status, message)
+            self.summary.status, self.summary.message = status, message
+            try:
+                if self.staged:
+                    self.results.write_phases([asdict(r) for r in self.records])
+                self.results.close()
+                self._write_record(status, message)
+            except OSError:
+                if status != "failed":  # an output error is already on its way out
+                    raise OutputError(f"cannot write the run's output in {self.out}") from None
+            finally:
+                self.directory.release()
         return self.summary
 
 
@@ -683,6 +756,10 @@ def largest_displacement(positions: wp.array, start: np.ndarray) -> float:
 
 class _Stopped(Exception):
     """``--end-time`` reached inside an equilibrium phase."""
+
+
+class _Interrupted(Exception):
+    """SIGINT or SIGTERM asked the run to stop."""
 
 
 def run_scene(scene: Scene, out_dir, **kwargs) -> RunSummary:

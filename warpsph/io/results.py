@@ -43,8 +43,9 @@ class ResultsWriter:
 
     ``resume_step`` reopens an existing file and drops everything written after that step
     (frames and series samples with ``step > resume_step``, and any incomplete frame), so a run
-    resumed from a checkpoint continues exactly where the checkpoint was taken. A missing file
-    is created fresh.
+    resumed from a checkpoint continues exactly where the checkpoint was taken; the file's ``scene``
+    becomes the resumed scene's text and ``resumed_at`` lists the steps runs were resumed from. A
+    missing file is created fresh.
     """
 
     def __init__(self, path, *, dim: int, scene_text: str, particle_ids: np.ndarray,
@@ -54,6 +55,9 @@ class ResultsWriter:
         self._closed = False
         if resume_step is not None and self.path.exists():
             self._truncate(int(resume_step), dim)
+            with _open(self.path, "r+") as f:
+                f.attrs["scene"] = scene_text
+                f.attrs["resumed_at"] = np.append(f.attrs.get("resumed_at", np.zeros(0, np.int64)), int(resume_step))
             return
         self.path.parent.mkdir(parents=True, exist_ok=True)
         ids = np.asarray(particle_ids, dtype=np.int64)

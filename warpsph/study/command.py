@@ -38,9 +38,9 @@ def main(args) -> int:
     if args.workers is not None and args.workers < 0:
         raise InputError(f"--workers: must be >= 0, got {args.workers}")
     if args.device.startswith("cuda") and not args.scheduler and not args.dry_run:
-        from warpsph.cli import _init_warp
+        from warpsph.environment import init_warp
 
-        if not _init_warp().is_cuda_available():
+        if not init_warp().is_cuda_available():
             raise InputError(f"--device {args.device}: no CUDA device is available")
     from warpsph.study.execute import RunStore, run_studies
     from warpsph.study.report import write_reports

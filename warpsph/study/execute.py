@@ -25,12 +25,12 @@ def run_case(scene_text: str, scene_name: str, overrides: dict, metric: str, dev
     status ("finished", "unstable" or "failed": the scene could not be built), errors, extras and
     timings [s] (``wall_seconds`` counts the steps alone, ``compile_seconds`` the warm-up step)."""
     from warpsph.bench import machine_record, timing_fields
-    from warpsph.cli import _init_warp
+    from warpsph.environment import init_warp
     from warpsph.scene_toml import parse_scene
     from warpsph.environment import default_device
     from warpsph.study.metrics import METRICS
 
-    _init_warp()
+    init_warp()
     device = device or default_device()
     record = {"overrides": overrides, "metric": metric, "status": "finished", "message": "", "errors": {},
               "extras": {}, "machine": machine_record(device)}  # fmt: skip

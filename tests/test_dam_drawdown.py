@@ -1,0 +1,39 @@
+"""The shipped earth dam under a rapid drawdown (scenes/dam_rapid_drawdown.toml): the reservoir falls
+faster than the dam drains, the upstream slope keeps its pore water without the reservoir's pressure,
+and its factor of safety falls below the full reservoir's (docs/scenes.md, *Groundwater flow*)."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+import warpsph
+
+SCENE = Path(__file__).resolve().parent.parent / "scenes" / "dam_rapid_drawdown.toml"
+CREST_MIDDLE = 16.5  # m
+
+
+@pytest.mark.slow
+def test_a_rapid_drawdown_lowers_the_upstream_slopes_factor_of_safety(tmp_path):
+    scene = warpsph.load_scene(SCENE)
+    summary = warpsph.run_scene(scene.validate(), tmp_path, device="cpu")
+    phases = {p["name"]: p for p in summary.phases}
+    full, drawn = phases["full_safety"], phases["drawdown_safety"]
+    assert full["outcome"] == drawn["outcome"] == "converged"
+    print(f"\nfactor of safety at full reservoir {full['criterion']:.3f}, after the drawdown {drawn['criterion']:.3f}")
+    assert drawn["criterion"] < full["criterion"] - 0.2
+    stands = {factor for factor, converged, *_ in full["trials"] if converged}
+    fails = {factor for factor, converged, *_ in drawn["trials"] if not converged}
+    assert stands & fails  # one trial factor stands at full reservoir and fails after the drawdown
+    results = warpsph.load_results(tmp_path / "results.h5")
+    index = {name: i for i, name in enumerate(p["name"] for p in results.phases)}
+    first_failed = next(i for i in range(len(results.times)) if results.frame_phases[i] == index["drawdown_safety"]
+                        and results.frame_attrs(i).get("converged") == 0)  # fmt: skip
+    frame = results.frame(first_failed)
+    moved = np.linalg.norm(frame["displacement"], axis=1)
+    sliding = moved > 0.5 * moved.max()
+    assert np.mean(frame["position"][sliding, 0] < CREST_MIDDLE) > 0.9  # the upstream slope fails
+    _t, p = results.series("pore_pressure_in_upstream_slope")
+    assert p[-1] > 0.4 * p.max()  # the slope kept its water: far above the lowered reservoir's 0 there

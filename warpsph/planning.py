@@ -1,0 +1,129 @@
+"""What a run of a scene will cost before it starts: particles, time step, steps, run time on this
+machine (from a few timed steps) and output size; ``warpsph validate`` prints it (docs/output.md,
+*Before a run*)."""
+
+from __future__ import annotations
+
+import math
+import time
+from dataclasses import dataclass, field
+
+from warpsph.phases import default_phases, phase_scene
+from warpsph.scene import Scene
+
+TIMED_STEPS, TIMED_SECONDS = 20, 2.0
+"""The estimate times steps until either is reached, after one compiling step."""
+MANY_STEPS = 10_000_000
+"""A run planned for more steps than this gets a warning: mostly a unit typed wrong."""
+_COMPONENTS = {"position": 3, "id": 1, "velocity": 3, "displacement": 3, "stress": 6, "pore_pressure": 1,
+               "plastic_strain": 1, "darcy_velocity": 3, "saturation": 1}  # fmt: skip
+
+
+@dataclass
+class RunPlan:
+    """The plan of a run (see module docstring)."""
+
+    particles: int
+    virtual_points: int
+    time_step: float
+    """The mechanical phases' Δt [s] (the first one's)."""
+    steps: int
+    """Explicit steps of the dynamic phases, plus the step caps of the equilibrium and safety phases
+    (a safety search counted as seven trials, each at its cap), which they seldom reach."""
+    capped: bool
+    """Whether ``steps`` counts a cap (an upper bound) rather than a duration."""
+    frames: int
+    seconds_per_step: float
+    output_bytes: float
+    notes: list[str] = field(default_factory=list)
+
+    @property
+    def seconds(self) -> float:
+        return self.steps * self.seconds_per_step
+
+    def lines(self) -> list[str]:
+        bound = "at most " if self.capped else ""
+        out = [f"{self.particles} particles, {self.virtual_points} virtual points, dt = {self.time_step:.4g} s",
+               f"{bound}{self.steps:,} steps, {self.frames} frames: about {_duration(self.seconds)} on this machine "
+               f"({1e3 * self.seconds_per_step:.3g} ms per step measured), about {_size(self.output_bytes)} of output"]
+        return out + self.notes
+
+
+def plan(scene: Scene, device: str | None = None) -> RunPlan:
+    """Build the scene's first mechanical phase, time a few of its steps and count the rest."""
+    from warpsph.builder import build
+    from warpsph.runner import warm_up
+    from warpsph.solver import Solver
+    from warpsph.stages.guard import Guard
+
+    phases = default_phases(scene)
+    mechanical = [i for i, p in enumerate(phases) if p.kind not in ("k0", "flow")]
+    first = phase_scene(scene, mechanical[0] if mechanical else 0) if scene.phases else scene
+    model, state = build(first, device=device)
+    dt = first.time_step
+    seconds_per_step = 0.0
+    if mechanical:
+        phase = phases[mechanical[0]]
+        damped = phase.kind in ("equilibrium", "safety")
+        solver = Solver(model, damping=phase.damping if damped else None, pore_pressure=phase.pore_pressure)
+        scratch = model.state()
+        scratch.assign(state)
+        warm_up(solver, Guard(model, first.speed_limit), state, scratch, 0.0, dt)
+        start, n = time.perf_counter(), 0
+        while n < TIMED_STEPS and time.perf_counter() - start < TIMED_SECONDS:
+            solver.step(state, scratch, n * dt, dt)
+            state, scratch = scratch, state
+            n += 1
+        import warp as wp
+
+        wp.synchronize_device(model.device)
+        seconds_per_step = (time.perf_counter() - start) / n
+    steps, capped, frames, notes = count_steps(scene)
+    fields = ["position", "pore_pressure", "plastic_strain"] + list(scene.output.fields)
+    itemsize = 8 if model.spec.precision == "float64" else 4
+    per_frame = model.particle_count * sum(_COMPONENTS.get(f, 1) for f in set(fields)) * itemsize
+    output = frames * per_frame * (2 if scene.output.usd else 1)
+    return RunPlan(model.particle_count, model.virtual_count, dt, steps, capped, frames, seconds_per_step,
+                   float(output), notes)  # fmt: skip
+
+
+def count_steps(scene: Scene) -> tuple[int, bool, int, list[str]]:
+    """(steps, capped, frames, notes) of :class:`RunPlan`, from the scene alone (no model is built);
+    the notes warn of more than :data:`MANY_STEPS` steps."""
+    phases = default_phases(scene)
+    steps, frames, capped, notes = 0, 1, False, []
+    for i, phase in enumerate(phases):
+        sc = phase_scene(scene, i) if scene.phases else scene
+        if phase.kind == "dynamic":
+            n = min(math.ceil(phase.duration / sc.time_step - 1e-9), phase.max_steps)
+            steps += n
+            frames += max(1, n // max(1, round(sc.output.frame_interval / sc.time_step)))
+        elif phase.kind == "equilibrium":
+            steps, capped, frames = steps + phase.max_steps, True, frames + 1
+        elif phase.kind == "safety":
+            steps, capped, frames = steps + 7 * phase.max_steps, True, frames + 8
+        elif phase.kind == "flow":
+            frames += 1 if phase.steady else phase.frames
+            notes.append(f"phase {phase.name} (flow): implicit steps sized by accuracy, not counted")
+    if steps > MANY_STEPS and not capped:
+        notes.append(f"warning: {steps:,} steps, more than {MANY_STEPS:,}: check simulation.end_time, and the "
+                     "units of the materials' moduli (Pa) and densities (kg/m3), which set the time step")  # fmt: skip
+    return steps, capped, frames, notes
+
+
+def _duration(seconds: float) -> str:
+    if seconds < 120:
+        return f"{seconds:.3g} s"
+    if seconds < 7200:
+        return f"{seconds / 60:.3g} min"
+    if seconds < 2 * 86400:
+        return f"{seconds / 3600:.3g} h"
+    return f"{seconds / 86400:.3g} days"
+
+
+def _size(n: float) -> str:
+    for unit, scale in (("GB", 1e9), ("MB", 1e6), ("kB", 1e3)):
+        if n >= scale:
+            return f"{n / scale:.3g} {unit}"
+    return f"{int(n)} B"
+
