@@ -8,7 +8,7 @@ import h5py
 import numpy as np
 import pytest
 
-from warpsph.io import ResultsWriter, write_xdmf
+from warpsph.io import ResultsWriter, XdmfIndex, write_xdmf
 from warpsph.io.xdmf import VOIGT
 
 N = 9
@@ -27,13 +27,14 @@ def fields(k: int) -> dict[str, np.ndarray]:
 
 @pytest.fixture
 def run(tmp_path):
-    """A results file of three frames with its XDMF, rewritten after each frame as the runner does,
-    plus an incomplete fourth frame (no ``step`` attribute: a write cut short) that must not show."""
+    """A results file of three frames with its XDMF, appended after each frame as the runner does,
+    plus an incomplete fourth frame (no ``step`` attribute: a write cut short) that a whole rewrite
+    (a resumed run's) must not show."""
     path = tmp_path / "results.h5"
     with ResultsWriter(path, dim=3, scene_text="", particle_ids=np.arange(N), warpsph_version="0") as writer:
+        index = XdmfIndex(path)
         for k, step in enumerate(STEPS):
-            writer.write_frame(step, step * 1e-3, fields(k))
-            write_xdmf(path)
+            index.append(writer.write_frame(step, step * 1e-3, fields(k)))
     with h5py.File(path, "r+") as f:
         f["frames"].create_group("000003").create_dataset("position", data=np.zeros((N, 3)))
     return path, write_xdmf(path)
@@ -111,3 +112,25 @@ def test_meshio_cannot_read_it(run):
         np.testing.assert_array_equal(points, fields(0)["position"])
         with pytest.raises(KeyError, match="Format"):
             reader.read_data(1)
+
+
+def test_index_appends_each_frame_alone(tmp_path, monkeypatch):
+    """XdmfIndex (what a run writes) builds each frame's grid once and appends it: after every frame
+    the file is byte-identical to a whole write_xdmf, and the grids built grow by one per frame, not
+    with the frames before (constant cost per frame)."""
+    import warpsph.io.xdmf as xdmf
+
+    path = tmp_path / "results.h5"
+    writer = ResultsWriter(path, dim=3, scene_text="", particle_ids=np.arange(N), warpsph_version="0")
+    built = []
+    grid = xdmf._grid
+    monkeypatch.setattr(xdmf, "_grid", lambda *args: built.append(1) or grid(*args))
+    index = xdmf.XdmfIndex(path)
+    for k, step in enumerate(STEPS):
+        before = len(built)
+        index.append(writer.write_frame(step, step * 1e-3, fields(k)))
+        assert len(built) == before + 1
+        monkeypatch.setattr(xdmf, "_grid", grid)
+        whole = write_xdmf(path, tmp_path / "whole.xdmf").read_bytes()
+        monkeypatch.setattr(xdmf, "_grid", lambda *args: built.append(1) or grid(*args))
+        assert index.path.read_bytes() == whole

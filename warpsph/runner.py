@@ -28,7 +28,8 @@ from warpsph.builder import build, plastic_materials
 from warpsph.environment import check_device, default_device
 from warpsph.errors import InputError, OutputError, SimulationError
 from warpsph.fields import tensor_to_voigt
-from warpsph.io import ResultsWriter, UsdParticleCache, load_checkpoint, save_checkpoint, write_xdmf
+from warpsph.io import ResultsWriter, UsdParticleCache, load_checkpoint, save_checkpoint
+from warpsph.io.xdmf import XdmfIndex
 from warpsph.io.run_directory import RunDirectory, first_difference, scene_record
 from warpsph.initial_stress import geostatic_stress, geostatic_unit_weight
 from warpsph.model import PLANE_TRACTION, Model, State
@@ -179,6 +180,7 @@ class Run:
         self.results = ResultsWriter(self.out / RESULTS, dim=scene.simulation.dim, scene_text=scene.source_text,
                                      particle_ids=self.model.particle_ids, warpsph_version=warpsph.__version__,
                                      resume_step=start_step)  # fmt: skip
+        self.xdmf = XdmfIndex(self.out / RESULTS) if scene.output.xdmf else None
         self.usd = None
         if scene.output.usd:
             self.usd = UsdParticleCache(self.out, radius=0.5 * self.model.dx, resume_step=start_step)
@@ -329,11 +331,11 @@ class Run:
         if self.flow is not None:
             frame["saturation"] = self.flow.saturation_field()
         self._sample_probes(fields)
-        self.results.write_frame(self.step_index, self.time, frame, phase=self.phase_index, **attrs)
+        name = self.results.write_frame(self.step_index, self.time, frame, phase=self.phase_index, **attrs)
         if self.staged:
             self.results.write_phases([asdict(r) for r in self.records])
-        if self.scene.output.xdmf:
-            write_xdmf(self.out / RESULTS)
+        if self.xdmf is not None:
+            self.xdmf.append(name)
         if self.usd is not None:
             self.usd.write_frame(self.step_index, self.time, frame["position"],
                                  {k: v for k, v in frame.items() if k not in ("position", "id")})  # fmt: skip

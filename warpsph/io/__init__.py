@@ -6,7 +6,7 @@ Pure numpy/h5py; ``pxr`` (usd-core) is imported only when a UsdParticleCache is 
 from .checkpoint import Checkpoint, load_checkpoint, save_checkpoint
 from .results import FORMAT_VERSION, Results, ResultsWriter, load_results
 from .usd import UsdParticleCache
-from .xdmf import write_xdmf
+from .xdmf import XdmfIndex, write_xdmf
 
 __all__ = [
     "FORMAT_VERSION",
@@ -14,6 +14,7 @@ __all__ = [
     "Results",
     "ResultsWriter",
     "UsdParticleCache",
+    "XdmfIndex",
     "load_checkpoint",
     "load_results",
     "save_checkpoint",

@@ -40,14 +40,17 @@ def save_checkpoint(path, *, step: int, time: float, arrays: dict[str, np.ndarra
     """
     path = Path(path)
     tmp = path.with_name(path.name + ".tmp")
-    with h5py.File(tmp, "w", locking=False) as f:
-        f.attrs.update(format=FORMAT, format_version=FORMAT_VERSION, step=int(step), time=float(time))
-        group = f.create_group("arrays")
-        for name, data in arrays.items():
-            group.create_dataset(name, data=np.asarray(data))
-        f.create_group("meta").attrs.update(meta)
-    _fsync(tmp)
-    os.replace(tmp, path)
+    try:
+        with h5py.File(tmp, "w", locking=False) as f:
+            f.attrs.update(format=FORMAT, format_version=FORMAT_VERSION, step=int(step), time=float(time))
+            group = f.create_group("arrays")
+            for name, data in arrays.items():
+                group.create_dataset(name, data=np.asarray(data))
+            f.create_group("meta").attrs.update(meta)
+        _fsync(tmp)
+        os.replace(tmp, path)
+    finally:  # a write that failed (a full disk) leaves the previous checkpoint and no temporary file
+        tmp.unlink(missing_ok=True)
     if os.name == "posix":  # make the rename itself durable
         _fsync(path.parent)
 

@@ -53,6 +53,7 @@ class ResultsWriter:
         self.path = Path(path)
         self._series: dict[str, list[tuple[int, float, float]]] = {}
         self._closed = False
+        self._next_frame = 0
         if resume_step is not None and self.path.exists():
             self._truncate(int(resume_step), dim)
             with _open(self.path, "r+") as f:
@@ -82,6 +83,7 @@ class ResultsWriter:
                 step = frames[name].attrs.get("step")
                 if step is None or step > resume_step:
                     del frames[name]
+            self._next_frame = max((int(k) for k in frames), default=-1) + 1
             for group in f.require_group("series").values():
                 keep = group["step"][()] <= resume_step
                 if not keep.all():
@@ -90,21 +92,22 @@ class ResultsWriter:
                         group[column].resize((data.size,))
                         group[column][...] = data
 
-    def write_frame(self, step: int, time: float, fields: dict[str, np.ndarray], **attrs) -> None:
+    def write_frame(self, step: int, time: float, fields: dict[str, np.ndarray], **attrs) -> str:
         """Append frame ``/frames/NNNNNN`` (time [s], step and the scalar ``attrs``, e.g. its phase) with
-        one dataset per field, then flush the buffered series. The file is closed again before
-        returning."""
+        one dataset per field, then flush the buffered series; return the frame's name ``NNNNNN``.
+        The file is closed again before returning."""
         self._check_open()
+        name = f"{self._next_frame:06d}"
         with _open(self.path, "r+") as f:
-            frames = f["frames"]
-            index = max((int(k) for k in frames), default=-1) + 1
-            group = frames.create_group(f"{index:06d}")
-            for name, data in fields.items():
-                group.create_dataset(name, data=np.asarray(data))
+            group = f["frames"].create_group(name)
+            for field_name, data in fields.items():
+                group.create_dataset(field_name, data=np.asarray(data))
             group.attrs.update(attrs)
             group.attrs["time"] = float(time)
             group.attrs["step"] = int(step)  # written last: marks the frame complete
             self._flush_series(f)
+        self._next_frame += 1
+        return name
 
     def write_phases(self, records: list[dict]) -> None:
         """Replace ``/phases``: one row per phase, columns ``name``, ``kind``, ``outcome`` (strings),

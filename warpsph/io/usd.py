@@ -163,9 +163,12 @@ class UsdParticleCache:
     @staticmethod
     def _export(layer, path: Path) -> None:
         tmp = path.with_name(f"tmp_{path.name}")  # same extension: the format follows it
-        if not layer.Export(str(tmp)):
-            raise OSError(f"could not write {tmp}")
-        os.replace(tmp, path)
+        try:
+            if not layer.Export(str(tmp)):
+                raise OSError(f"could not write {tmp}")
+            os.replace(tmp, path)
+        finally:
+            tmp.unlink(missing_ok=True)
 
     def close(self) -> None:
         """Nothing is held open; kept for symmetry with ResultsWriter."""

@@ -1,8 +1,9 @@
 """XDMF 3 index over a results file, so ParaView/VisIt can open ``results.xdmf`` directly.
 
-Only shapes and attributes are read (no particle data), the XML of frames seen before is reused,
-and the file is replaced atomically, so rewriting it after every frame is cheap and a kill never
-leaves half a file.
+Only shapes and attributes are read (no particle data). :func:`write_xdmf` writes the whole file
+from the results file, atomically (a temporary file renamed over it); :class:`XdmfIndex` does that
+once and then appends each new frame at a constant cost: the frame's grid and the closing tags go in
+one write over the old closing tags, so a killed process leaves the old or the new file, whole.
 
 An (N,6) dataset (``stress``, Voigt order xx, yy, zz, yz, xz, xy) is not written as an XDMF
 ``Tensor6``: the readers disagree on that type's component order (VTK's Xdmf2 reader, ParaView's
@@ -99,42 +100,66 @@ def _stamp(frames: h5py.Group, name: str, step: np.ndarray, time: np.ndarray) ->
     return int(step), float(time)
 
 
-# Frames never change once complete, so their XML is kept per (results file, xdmf file) and only
-# reused while the file's ``created`` stamp and the frame's step and time still match.
-_cache: dict[tuple[str, str], dict[str, tuple[tuple, str]]] = {}
+_HEAD = ('<?xml version="1.0" encoding="utf-8"?>\n<Xdmf Version="3.0">\n  <Domain>\n'
+         '    <Grid Name="particles" GridType="Collection" CollectionType="Temporal">\n')
+_TAIL = "    </Grid>\n  </Domain>\n</Xdmf>\n"
+
+
+def _paths(h5_path, xdmf_path) -> tuple[Path, Path, str]:
+    h5_path = Path(h5_path)
+    xdmf_path = Path(xdmf_path) if xdmf_path is not None else h5_path.with_suffix(".xdmf")
+    ref = Path(os.path.relpath(h5_path.resolve(), xdmf_path.resolve().parent)).as_posix()
+    return h5_path, xdmf_path, ref
 
 
 def write_xdmf(h5_path, xdmf_path=None) -> Path:
     """Write the XDMF file for ``h5_path`` (default: same stem, ``.xdmf``) and return its path.
 
-    One Polyvertex grid per frame in a temporal collection; geometry from ``position``, one
+    One Polyvertex grid per complete frame in a temporal collection; geometry from ``position``, one
     attribute per other dataset with shape (N,), (N,3) or (N,9) and a numeric dtype, and one
     Scalar attribute ``NAME_xx`` ... ``NAME_xy`` per component of an (N,6) dataset.
     """
-    h5_path = Path(h5_path)
-    xdmf_path = Path(xdmf_path) if xdmf_path is not None else h5_path.with_suffix(".xdmf")
-    ref = Path(os.path.relpath(h5_path.resolve(), xdmf_path.resolve().parent)).as_posix()
-    key = (str(h5_path.resolve()), str(xdmf_path.resolve()))
-    old, new = _cache.get(key, {}), {}
+    h5_path, xdmf_path, ref = _paths(h5_path, xdmf_path)
+    grids = []
     with _open(h5_path, "r") as f:
-        vertex, created = f.get("particles/vertex"), f.attrs.get("created")
-        frames = f.get("frames")
-        names = sorted(frames, key=int) if frames is not None else []
+        vertex, frames = f.get("particles/vertex"), f.get("frames")
         step, time = np.empty((), np.int64), np.empty((), np.float64)
-        for name in names:
-            stamp = _stamp(frames, name, step, time)
-            if stamp is None:
-                continue
-            stamp = (created, *stamp)
-            cached = old.get(name)
-            new[name] = cached if cached and cached[0] == stamp else (stamp, _grid(frames[name], vertex, ref))
-    _cache[key] = new
-
+        for name in sorted(frames, key=int) if frames is not None else []:
+            if _stamp(frames, name, step, time) is not None:
+                grids.append(_grid(frames[name], vertex, ref))
     tmp = xdmf_path.with_name(f".{xdmf_path.name}.tmp")
-    with open(tmp, "w", encoding="utf-8") as out:
-        out.write('<?xml version="1.0" encoding="utf-8"?>\n<Xdmf Version="3.0">\n  <Domain>\n'
-                  '    <Grid Name="particles" GridType="Collection" CollectionType="Temporal">\n')
-        out.writelines(xml for _, xml in new.values())
-        out.write("    </Grid>\n  </Domain>\n</Xdmf>\n")
-    os.replace(tmp, xdmf_path)
+    try:
+        with open(tmp, "w", encoding="utf-8") as out:
+            out.write(_HEAD)
+            out.writelines(grids)
+            out.write(_TAIL)
+        os.replace(tmp, xdmf_path)
+    finally:
+        tmp.unlink(missing_ok=True)
     return xdmf_path
+
+
+class XdmfIndex:
+    """The XDMF file of a results file being written: :func:`write_xdmf` at creation (the frames
+    already there, e.g. of a resumed run), then :meth:`append` per new frame at a constant cost
+    (see module docstring)."""
+
+    def __init__(self, h5_path, xdmf_path=None):
+        self.h5_path, self.path, self._ref = _paths(h5_path, xdmf_path)
+        write_xdmf(self.h5_path, self.path)
+        self._end = self.path.stat().st_size - len(_TAIL.encode())
+        """Byte offset of the closing tags, where the next frame's grid goes."""
+
+    def append(self, frame: str) -> None:
+        """Add frame ``frame`` (its group name under ``/frames``, complete) after the others."""
+        if not hasattr(os, "pwrite"):  # no positioned write (Windows): the whole file again
+            write_xdmf(self.h5_path, self.path)
+            return
+        with _open(self.h5_path, "r") as f:
+            grid = _grid(f["frames"][frame], f.get("particles/vertex"), self._ref).encode()
+        fd = os.open(self.path, os.O_WRONLY)
+        try:
+            os.pwrite(fd, grid + _TAIL.encode(), self._end)  # one write: old file or new, whole
+        finally:
+            os.close(fd)
+        self._end += len(grid)
