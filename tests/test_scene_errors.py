@@ -7,7 +7,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from warpsph.errors import SceneError
+from warpsph.errors import SceneError, SceneWarning
 from warpsph.lattice import count_lattice_points, fill_body, fill_cells
 from warpsph.scene import Body, Material, Scene, Simulation
 from warpsph.scene_toml import load_scene, parse_scene
@@ -427,3 +427,94 @@ def test_documented_terzaghi_example_is_valid():
     assert scene.boundaries[0].drainage.kind == "impermeable"
     assert (scene.loads[0].drainage.kind, scene.loads[0].drainage.pore_pressure) == ("drained", 0.0)
     assert len(fill_body(body, scene.simulation.dx, 1)) == 101
+
+
+SECOND_BODY = '\n[[bodies]]\nname = "{name}"\nmaterial = "soil"\nmin = [{x0}, {y0}]\nmax = [{x1}, {y1}]\n'
+REACH_CASES = {
+    "traction face with no particle": (edit("position = 2.0\nside = \"max\"\ntraction", "position = 3.0\nside = "
+                                            "\"max\"\ntraction"), "loads.top.position"),
+    "load extent missing every particle": (edit("traction = [0, -1e4]", "traction = [0, -1e4]\nextent = { min = [5, 0],"
+                                                " max = [6, 3] }"), "loads.top.extent"),
+    "point probe far from every particle": (edit("point = [0.25, 1.0]", "point = [50, 50]"), "probes.middle.point"),
+    "region_mean over an empty region": (append('\n[[probes]]\nname = "mean"\nkind = "region_mean"\nfield = '
+                                                '"stress_yy"\nregion = { min = [5, 5], max = [6, 6] }\n'),
+                                         "probes.mean.region"),
+    "body below the base": (edit("min = [0, 0]\nmax = [0.5, 2.0]", "min = [0, -3]\nmax = [0.5, -1]"), "bodies.column"),
+    "base's side reversed": (edit('kind = "fixed"\naxis = "y"\nposition = 0.0\nside = "min"',
+                                  'kind = "fixed"\naxis = "y"\nposition = 0.0\nside = "max"'), "bodies.column"),
+    "overlapping bodies": (append(SECOND_BODY.format(name="upper", x0=0, y0=1.0, x1=0.5, y1=2.0)), "bodies.upper"),
+    "rigid region with no particle": (append(RIGID.format(kind="velocity", extra="velocity = [0, -0.1]\nregion = { "
+                                                          "min = [5, 5], max = [6, 6] }")), "loads.cap.region"),
+}
+
+
+@pytest.mark.parametrize("case", list(REACH_CASES), ids=list(REACH_CASES))
+def test_a_scene_that_would_do_nothing_is_refused_when_built(case):
+    """Loads, extents, probes and regions that reach no particle, bodies beyond their planes and
+    overlapping bodies: the scene is valid as text, its lattice shows the problem."""
+    from warpsph.builder import build
+
+    make, key = REACH_CASES[case]
+    scene = parse_scene(make(BASE))
+    with pytest.raises(SceneError) as info:
+        build(scene, device="cpu")
+    assert info.value.key == key
+    assert "\n" not in str(info.value)
+
+
+def test_bodies_sharing_a_face_build():
+    """Touching bodies share their boundary row (it goes to the body listed first): not an overlap."""
+    from warpsph.builder import build
+
+    text = edit("max = [0.5, 2.0]", "max = [0.5, 1.0]")(BASE) + SECOND_BODY.format(name="upper", x0=0, y0=1.0, x1=0.5,
+                                                                                    y1=2.0)  # fmt: skip
+    model, _ = build(parse_scene(text), device="cpu")
+    assert model.particle_count == len(fill_body(parse_scene(BASE).bodies[0], 0.1, 2))
+
+
+def test_an_embedded_body_takes_what_it_shares():
+    """A weaker seed listed first with ``embedded = true`` inside the column: it owns its points."""
+    from warpsph.builder import build
+
+    seed = SECOND_BODY.format(name="seed", x0=0.1, y0=0.8, x1=0.4, y1=1.2) + "embedded = true\n"
+    text = BASE.replace("[[bodies]]", seed.replace("[[bodies]]", "[[bodies]]", 1) + "\n[[bodies]]", 1)
+    scene = parse_scene(text)
+    assert [b.name for b in scene.bodies] == ["seed", "column"] and scene.bodies[0].embedded
+    model, _ = build(scene, device="cpu")
+    assert model.particle_count == len(fill_body(scene.bodies[1], 0.1, 2))
+
+
+@pytest.mark.parametrize("line, key", [("youngs_modulus = 20000", "youngs_modulus"), ("density = 1.8", "density")])
+def test_implausible_values_warn_with_the_unit(line, key):
+    old = "youngs_modulus = 1e7" if key == "youngs_modulus" else "density = 2000"
+    with pytest.warns(SceneWarning, match=f"materials.soil.{key} = .*(not kPa|not t/m³)"):
+        parse_scene(BASE.replace(old, line))
+
+
+def test_small_cohesion_warns_and_courant_above_1_is_refused():
+    plastic = BASE.replace("pore_water = false", "pore_water = false\nplasticity = true").replace(
+        'model = "elastic"', 'model = "viscoplastic"\ncohesion = 10\nfriction_angle = 30')  # fmt: skip
+    with pytest.warns(SceneWarning, match=r"materials.soil.cohesion = 10.0 Pa is below 100 Pa \(Pa, not kPa\)"):
+        parse_scene(plastic)
+    with pytest.raises(SceneError, match=r"simulation.courant: must be in \(0, 1.5\] \(the wave column blows up at 2"):
+        parse_scene(BASE.replace('scheme = "two_set"', 'scheme = "two_set"\ncourant = 2'))
+
+
+@pytest.mark.parametrize("data, message", [
+    (b"", "the file is empty; a scene needs at least [materials.<name>] and [[bodies]] (docs/scenes.md)"),
+    (b'name = "a"\nname = "b"\n', "TOML syntax error: the key 'name' is given twice in one table (at line 2; first "
+                                 "at line 1)"),
+    (b'name = "caf\xe9"\n', "the file is not UTF-8 text: byte 0xe9 at line 1, column 12 (save it as UTF-8)"),
+])  # fmt: skip
+def test_scene_files_that_cannot_be_read(tmp_path, data, message):
+    path = tmp_path / "scene.toml"
+    path.write_bytes(data)
+    with pytest.raises(SceneError) as info:
+        load_scene(path)
+    assert str(info.value) == message
+
+
+def test_a_byte_order_mark_is_dropped(tmp_path):
+    path = tmp_path / "scene.toml"
+    path.write_bytes(b"\xef\xbb\xbf" + BASE.encode())
+    assert load_scene(path).name == "column"

@@ -16,9 +16,9 @@ de Borst 1997). A 2D band (biaxial sample) is not covered here.
 
 **Imperfection.** A weaker zone centred at y = 0.5 m whose cohesion dips linearly, as a function of
 position, by 5 % at the centre to nothing at |y − 0.5| = 0.15 m, as 30 nested bodies of 5 mm steps
-(the first body listed owns a point): the same physical imperfection at every Δx used here. A seed
-of one weaker material a few particles thick has a Δx-dependent size, and with it the band
-(*exploration*, γ = 5 /s, 2 % weaker over |y − 0.5| ≤ 0.03 m: 3 particles at Δx = 0.02 m and 7 at
+(each embedded in the next: the first body listed owns a point): the same physical imperfection at
+every Δx used here. A seed of one weaker material a few particles thick has a Δx-dependent size,
+and with it the band (measured: γ = 5 /s, 2 % weaker over |y − 0.5| ≤ 0.03 m: 3 particles at Δx = 0.02 m and 7 at
 0.01 m, FWHM 0.042 and 0.029 m).
 
 **Rate length.** Linearising simple shear about yield, τ = τ_y + η γ̇ᵖ with η = F₀/(3γ) and
@@ -94,7 +94,8 @@ def shear_layer(dx: float, fluidity: float) -> Scene:
         half = SEED_HALF_WIDTH * (j + 1) / SEED_STEPS
         name = f"seed{j}"
         materials[name] = soil(name, COHESION * (1.0 - SEED_DIP * (1.0 - j / SEED_STEPS)), fluidity)
-        bodies.append(Body(name=name, material=name, min=(0.0, CENTRE - half, 0.0), max=(0.0, CENTRE + half, 0.0)))
+        bodies.append(Body(name=name, material=name, min=(0.0, CENTRE - half, 0.0), max=(0.0, CENTRE + half, 0.0),
+                           embedded=True))
     materials["soil"] = soil("soil", COHESION, fluidity)
     bodies.append(Body(name="layer", material="soil", min=(0.0, 0.0, 0.0), max=(0.0, HEIGHT, 0.0)))
     top = Boundary(name="top", kind="velocity", axis="y", position=HEIGHT, side="max", velocity=(SPEED, 0.0, 0.0),

@@ -22,6 +22,7 @@ from warpsph.physics.plasticity import material_struct, viscoplastic_material
 from warpsph.pore_water import build_pore_water
 from warpsph.errors import SceneError
 from warpsph.scene import AXES, EXTENT_TOLERANCE, Scene
+from warpsph.scene_reach import check_reach
 from warpsph.sph.spec import Spec
 from warpsph.stages.ghost_layout import GHOST_MARGIN, ON_PLANE, plan_ghosts
 from warpsph.stages.rigid import RIGID_LOAD_KINDS
@@ -150,7 +151,8 @@ def build(scene: Scene, device: str | None = None, precision: str | None = None)
     mats = [scene.materials[m] for m in mat_names]
     body_mat = [mat_names.index(b.material) for b in scene.bodies]
 
-    real_pts, real_body = merge_unique([fill_body(b, dx, dim) for b in scene.bodies], dx)
+    body_points = [fill_body(b, dx, dim) for b in scene.bodies]
+    real_pts, real_body = merge_unique(body_points, dx)
     n = len(real_pts)
     density0 = np.array([mats[body_mat[b]].density for b in real_body])
     velocity0 = np.zeros((n, 3))
@@ -189,6 +191,7 @@ def build(scene: Scene, device: str | None = None, precision: str | None = None)
                 on_plane[a, counts[a]] = p_idx
                 counts[a] += 1
     constrained = np.nonzero(counts)[0].astype(np.int32)
+    check_reach(scene, planes, on_plane, real_pts, real_body, body_points)
     if pore:
         _check_drained_planes(scene, planes, on_plane, real_pts)
 

@@ -154,7 +154,15 @@ def _run(args) -> int:
     return 0
 
 
+def _show_warning(message, category, filename, lineno, file=None, line=None) -> None:
+    """Warnings as one line each on stderr, ``warpsph: warning: ...``."""
+    print(f"warpsph: warning: {one_line(str(message))}", file=sys.stderr)
+
+
 def main(argv: list[str] | None = None) -> int:
+    import warnings
+
+    warnings.showwarning = _show_warning
     args = _parser().parse_args(argv)
     try:
         return {"validate": _validate, "run": _run, "study": study_command.main}[args.command](args)

@@ -40,3 +40,7 @@ class OutputError(RuntimeError):
 
 class DeviceError(InputError):
     """The Warp device asked for is not one Warp knows, or is not on this machine."""
+
+
+class SceneWarning(UserWarning):
+    """A scene value that is valid but implausible for soil and rock (mostly a unit typed wrong)."""

@@ -273,6 +273,9 @@ class Body:
     """Add geostatic effective stresses under gravity: σ′_yy = −(ρ − ρ_w) g (top − y), the top the body's
     highest particle in the particle's own column, σ′_xx = σ′_zz = K0 σ′_yy (ρ_w = 0 without pore
     water)."""
+    embedded: bool = False
+    """The body lies inside bodies listed after it and takes the lattice points it shares with them
+    (an inclusion, a weaker seed); without it, bodies that overlap are an error."""
 
 
 @dataclass

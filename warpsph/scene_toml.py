@@ -14,6 +14,7 @@ or ``grain_density``, from which ``density`` is set to the mixture (1 − n) ρ_
 from __future__ import annotations
 
 import dataclasses
+import re
 import tomllib
 import typing
 from collections.abc import Mapping
@@ -39,10 +40,19 @@ def load_scene(path: str | Path, overrides: Mapping[str, object] | None = None) 
     unless the file sets ``name``. ``overrides`` as for :func:`parse_scene`."""
     path = Path(path)
     try:
-        text = path.read_text(encoding="utf-8")
-    except (OSError, UnicodeDecodeError) as exc:
-        reason = exc.strerror if isinstance(exc, OSError) and exc.strerror else str(exc)
-        raise SceneError("", f"cannot read scene file {path}: {reason}") from None
+        data = path.read_bytes()
+    except OSError as exc:
+        raise SceneError("", f"cannot read scene file {path}: {exc.strerror or exc}") from None
+    try:
+        text = data.decode("utf-8-sig")  # a byte-order mark, which some editors write, is dropped
+    except UnicodeDecodeError as exc:
+        line = data[: exc.start].count(b"\n") + 1
+        column = exc.start - (data.rfind(b"\n", 0, exc.start) + 1) + 1
+        raise SceneError("", f"the file is not UTF-8 text: byte 0x{data[exc.start]:02x} at line {line}, "
+                         f"column {column} (save it as UTF-8)") from None  # fmt: skip
+    if not text.strip():
+        raise SceneError("", "the file is empty; a scene needs at least [materials.<name>] and [[bodies]] "
+                         "(docs/scenes.md)")  # fmt: skip
     return parse_scene(text, name=path.stem, overrides=overrides)
 
 
@@ -56,7 +66,7 @@ def parse_scene(text: str, name: str = "scene", overrides: Mapping[str, object] 
     try:
         document = tomllib.loads(text)
     except tomllib.TOMLDecodeError as exc:
-        raise SceneError("", f"TOML syntax error: {' '.join(str(exc).split())}") from None
+        raise SceneError("", f"TOML syntax error: {_syntax_error(str(exc), text)}") from None
     if overrides:
         apply_overrides(document, overrides)
         text += "".join(f"\n# override: {key} = {value!r}" for key, value in overrides.items()) + "\n"
@@ -67,6 +77,25 @@ def parse_scene(text: str, name: str = "scene", overrides: Mapping[str, object] 
     scene.source_text = text
     validate_scene(scene)
     return scene
+
+
+def _syntax_error(message: str, text: str) -> str:
+    """tomllib's message on one line; for a key given twice, which it reports as "Cannot overwrite a
+    value", the key and both lines."""
+    message = " ".join(message.split())
+    found = re.search(r"^Cannot (?:overwrite|declare) .*\(at line (\d+), column \d+\)$", message)
+    if found is None:
+        return message
+    lines = text.splitlines()
+    number = int(found.group(1))
+    key = lines[number - 1].split("=", 1)[0].strip().strip("[]").strip() if number <= len(lines) else ""
+    if not key:
+        return message
+    leaf = key.rsplit(".", 1)[-1]
+    earlier = [i + 1 for i, line in enumerate(lines[: number - 1])
+               if line.split("=", 1)[0].strip().strip("[]").strip().rsplit(".", 1)[-1] == leaf]  # fmt: skip
+    where = f" (at line {number}{f'; first at line {earlier[-1]}' if earlier else ''})"
+    return f"the key {key!r} is given twice in one table{where}"
 
 
 def apply_overrides(document: dict, overrides: Mapping[str, object]) -> dict:

@@ -24,7 +24,7 @@ from decimal import Decimal
 
 import numpy as np
 
-from warpsph.errors import SceneError
+from warpsph.errors import SceneError, SceneWarning
 from warpsph.lattice import has_lattice_point, lattice_span, polygon_area, used_axes
 from warpsph.physics.retention import RETENTION
 from warpsph.scene import (
@@ -157,10 +157,10 @@ FRICTION_ANGLES = Interval(0.0, 90.0, lo_closed=True)
 """Friction angles φ [degrees] accepted: [0°, 90°)."""
 
 
-def check_range(key: str, value: float, interval: Interval) -> None:
-    """Raise unless ``value`` lies in ``interval``."""
+def check_range(key: str, value: float, interval: Interval, note: str = "") -> None:
+    """Raise unless ``value`` lies in ``interval``; ``note`` says why the bound is there."""
     if value not in interval:
-        raise SceneError(key, f"must be {interval}, got {show(value)}")
+        raise SceneError(key, f"must be {interval}{note}, got {show(value)}")
 
 
 def check_choice(key: str, value, choices: Iterable, note: str = "") -> None:
@@ -477,7 +477,8 @@ def _check_simulation(sim: Simulation) -> None:
     check_choice("simulation.kernel", sim.kernel, ("cubic_spline", "wendland_c2"))
     check_choice("simulation.scheme", sim.scheme, ("two_set", "collocated"))
     check_choice("simulation.integrator", sim.integrator, ("rk2", "rk4"))
-    check_range("simulation.courant", sim.courant, Interval(0.0, 2.0, hi_closed=True))
+    check_range("simulation.courant", sim.courant, Interval(0.0, MAX_COURANT, hi_closed=True),
+                note=" (the wave column blows up at 2; docs/accuracy.md)")  # fmt: skip
     check_choice("simulation.precision", sim.precision, ("float32", "float64"))
     check_range("simulation.artificial_viscosity", sim.artificial_viscosity, NON_NEGATIVE)
     check_range("simulation.stress_filter", sim.stress_filter, Interval(0.0, 0.5, lo_closed=True, hi_closed=True))
@@ -552,7 +553,37 @@ def _check_materials(materials: dict, effects: Effects) -> None:
         if material.k0 is not None:
             check_range(f"{key}.k0", material.k0, NON_NEGATIVE)
         _check_retention(material, key, effects)
+        _warn_implausible(material, key)
     _check_one_yield_function(materials)
+
+
+MAX_COURANT = 1.5
+"""The largest Courant number accepted: measured stable and accurate on the wave column, which blows
+up at 2 (docs/accuracy.md)."""
+PLAUSIBLE_DENSITY = (500.0, 5000.0)
+"""kg/m³: soils, rocks and their saturated mixtures lie between."""
+PLAUSIBLE_MODULUS, PLAUSIBLE_COHESION = 1e5, 100.0
+"""Pa: below these a value is likely in kPa (Young's modulus) or kPa (cohesion)."""
+
+
+def _warn_implausible(material: Material, key: str) -> None:
+    """One :class:`SceneWarning` per value unlikely for soil and rock, with the unit it probably
+    lacks; the scene still runs."""
+    lo, hi = PLAUSIBLE_DENSITY
+    if not lo <= material.density <= hi:
+        _warn(f"{key}.density = {show(material.density)} kg/m³ is outside {lo:g}–{hi:g} kg/m³ of soil and rock "
+              "(kg/m³, not t/m³ or g/cm³)")  # fmt: skip
+    if material.youngs_modulus < PLAUSIBLE_MODULUS:
+        _warn(f"{key}.youngs_modulus = {show(material.youngs_modulus)} Pa is below {PLAUSIBLE_MODULUS:g} Pa, softer "
+              "than any soil (Pa, not kPa or MPa)")  # fmt: skip
+    if material.model == "viscoplastic" and 0.0 < material.cohesion < PLAUSIBLE_COHESION:
+        _warn(f"{key}.cohesion = {show(material.cohesion)} Pa is below {PLAUSIBLE_COHESION:g} Pa (Pa, not kPa)")
+
+
+def _warn(message: str) -> None:
+    import warnings
+
+    warnings.warn(message, SceneWarning, stacklevel=2)
 
 
 def _check_viscoplastic(material: Material, key: str, effects: Effects) -> None:
