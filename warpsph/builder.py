@@ -15,7 +15,7 @@ import warp as wp
 
 from warpsph.fields import voigt_to_tensor
 from warpsph.initial_stress import geostatic_stress, geostatic_unit_weight
-from warpsph.lattice import fill_body, fill_cells, lattice_keys
+from warpsph.lattice import fill_body, fill_cells, lattice_codes
 from warpsph.environment import default_device, init_warp
 from warpsph.model import PLANE_FIXED, PLANE_SLIP, PLANE_TRACTION, PLANE_VELOCITY, Model, State
 from warpsph.physics.plasticity import material_struct, viscoplastic_material
@@ -52,7 +52,7 @@ def merge_unique(point_sets: list[np.ndarray], dx: float) -> tuple[np.ndarray, n
     owner = np.repeat(np.arange(len(sets), dtype=np.int32), [len(pts) for pts in sets])
     if not len(points):
         return points, owner
-    _, first = np.unique(lattice_keys(points, dx), axis=0, return_index=True)
+    _, first = np.unique(lattice_codes(points, dx), return_index=True)
     keep = np.sort(first)
     return points[keep], owner[keep]
 

@@ -12,17 +12,17 @@ from __future__ import annotations
 import numpy as np
 
 from warpsph.builder import merge_unique
-from warpsph.lattice import fill_body, fill_cells, lattice_keys
+from warpsph.lattice import fill_body, fill_cells, lattice_codes
 from warpsph.model import Model, State
 from warpsph.scene import Scene
 
 
 def lattice_rows(reference: np.ndarray, points: np.ndarray, dx: float) -> np.ndarray:
     """For each of the (M,3) lattice ``points``, its row in the (N,3) ``reference`` points, or −1."""
-    keys_ref, keys = lattice_keys(reference, dx), lattice_keys(points, dx)
+    keys_ref, keys = lattice_codes(reference, dx), lattice_codes(points, dx)
     if not len(keys):
         return np.zeros(0, dtype=np.int64)
-    both, inverse = np.unique(np.concatenate([keys_ref, keys]), axis=0, return_inverse=True)
+    both, inverse = np.unique(np.concatenate([keys_ref, keys]), return_inverse=True)
     inverse = inverse.reshape(-1)
     row_of = np.full(len(both), -1, dtype=np.int64)
     row_of[inverse[: len(keys_ref)][::-1]] = np.arange(len(keys_ref))[::-1]  # the first row of a repeated key

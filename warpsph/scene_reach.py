@@ -8,7 +8,7 @@ from __future__ import annotations
 import numpy as np
 
 from warpsph.errors import SceneError
-from warpsph.lattice import lattice_keys, used_axes
+from warpsph.lattice import code_step, lattice_codes, used_axes
 from warpsph.scene import AXES, EXTENT_TOLERANCE, Scene
 
 POINT_PROBE_REACH = 2.0
@@ -73,7 +73,7 @@ def _check_overlaps(scene: Scene, body_points: list[np.ndarray], dx: float) -> N
     unless the earlier one is ``embedded``: a point both hold whose lattice neighbours along every used
     axis both hold too is an overlap."""
     axes = used_axes(scene.simulation.dim)
-    codes = [_codes(lattice_keys(pts, dx)) for pts in body_points]
+    codes = [lattice_codes(pts, dx) for pts in body_points]
     for j in range(len(codes)):
         for i in range(j):
             if scene.bodies[i].embedded:
@@ -82,30 +82,10 @@ def _check_overlaps(scene: Scene, body_points: list[np.ndarray], dx: float) -> N
             if not len(shared):
                 continue
             interior = np.ones(len(shared), bool)
-            keys = _keys(shared)
             for axis in axes:
-                for step in (-2, 2):  # neighbours on the lattice: Δx is two half-spacing units
-                    moved = keys.copy()
-                    moved[:, axis] += step
-                    interior &= np.isin(_codes(moved), shared)
+                for sign in (-1, 1):
+                    interior &= np.isin(shared + sign * code_step(axis), shared)
             if np.any(interior):
                 raise SceneError(f"bodies.{scene.bodies[j].name}", f"overlaps bodies.{scene.bodies[i].name} "
                                  f"({int(np.sum(interior))} lattice points inside both); bodies may share a "
                                  "face, not a volume, unless the one inside is listed first with embedded = true")
-
-
-_SPAN = 1 << 20  # half-spacing keys per axis, offset to be non-negative: |x| < 2^19 Δx / 2
-
-
-def _codes(keys: np.ndarray) -> np.ndarray:
-    k = keys.astype(np.int64) + _SPAN // 2
-    return (k[:, 2] * _SPAN + k[:, 1]) * _SPAN + k[:, 0]
-
-
-def _keys(codes: np.ndarray) -> np.ndarray:
-    out = np.empty((len(codes), 3), np.int64)
-    rest = codes.copy()
-    for axis in range(3):
-        out[:, axis] = rest % _SPAN - _SPAN // 2
-        rest //= _SPAN
-    return out
