@@ -93,25 +93,35 @@ class Probes:
             self.selection.append(sel)
             self.normal.append(normal)
             self.area_factor.append(factor)
+        everything = any(p.kind in EXTREMA and p.region is None for p in self.probes)
+        self.rows = None if everything else np.unique(np.concatenate([np.zeros(0, np.int64), *self.selection]))
+        """The particles the probes read, sorted (None: all of them), so that a sample between frames
+        copies only these from the device (:meth:`sample` with ``rows``)."""
 
     @property
     def names(self) -> list[str]:
         return [p.name for p in self.probes]
 
-    def sample(self, fields: dict[str, np.ndarray], rigid_contact: np.ndarray | None = None) -> dict[str, float]:
+    def sample(self, fields: dict[str, np.ndarray], rigid_contact: np.ndarray | None = None,
+               rows: np.ndarray | None = None) -> dict[str, float]:  # fmt: skip
         """Probe values from host fields position (N,3), velocity (N,3), stress (N,3,3), density (N,)
         and, for reactions of rigid regions, their contact forces ``rigid_contact`` (K,3) [N/m or N]
-        (NaN without them)."""
+        (NaN without them). ``rows``: the fields hold only these particles (:attr:`rows`)."""
         out = {}
         x0 = self.displacement_origin
-        for p, sel, normal, factor, k in zip(self.probes, self.selection, self.normal, self.area_factor,
+        mass = self._mass
+        selections = self.selection
+        if rows is not None:
+            x0, mass = x0[rows], mass[rows]
+            selections = [np.searchsorted(rows, sel) for sel in self.selection]
+        for p, sel, normal, factor, k in zip(self.probes, selections, self.normal, self.area_factor,
                                              self.rigid_index):  # fmt: skip
             if k is not None:
                 known = rigid_contact is not None
                 out[p.name] = p.scale * float(rigid_contact[k, _COMPONENT[p.field]]) if known else float("nan")
             elif p.kind == "reaction":
                 traction = total_stress(fields)[sel] @ normal
-                area = factor * self._mass[sel] / fields["density"][sel] / self.model.dx
+                area = factor * mass[sel] / fields["density"][sel] / self.model.dx
                 out[p.name] = p.scale * float(np.sum(traction[:, _COMPONENT[p.field]] * area))
             else:
                 values = field_values(p.field, {k: v[sel] for k, v in fields.items()}, x0[sel])

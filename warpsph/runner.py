@@ -79,23 +79,33 @@ class RunSummary:
         return self.particles * self.steps / self.wall_seconds if self.wall_seconds > 0 else 0.0
 
 
-def host_fields(model: Model, state: State) -> dict[str, np.ndarray]:
+def host_fields(model: Model, state: State, rows: np.ndarray | None = None) -> dict[str, np.ndarray]:
     """Owned-particle fields on the host: position, velocity (N,3) [m, m/s], stress (N,3,3) [Pa],
     density [kg/m³], with pore water the total pore pressure (N,) [Pa] and with plasticity the
-    equivalent plastic strain (N,) [-]."""
+    equivalent plastic strain (N,) [-]. ``rows``: only these particles, gathered on the device
+    before the copy."""
     n = model.particle_count
+    if rows is None or not len(rows):
+        def read(arr):
+            return arr.numpy()[: n if rows is None else 0]
+    else:
+        index = wp.array(rows.astype(np.int32), dtype=wp.int32, device=model.device)
+
+        def read(arr):
+            return wp.indexedarray(arr, [index]).numpy()
     fields = {
-        "position": state.particle_q.numpy()[:n].astype(np.float64),
-        "velocity": state.particle_v.numpy()[:n].astype(np.float64),
-        "stress": state.particle_stress.numpy()[:n].astype(np.float64),
-        "density": state.particle_density.numpy()[:n].astype(np.float64),
+        "position": read(state.particle_q).astype(np.float64),
+        "velocity": read(state.particle_v).astype(np.float64),
+        "stress": read(state.particle_stress).astype(np.float64),
+        "density": read(state.particle_density).astype(np.float64),
     }
     if model.pore is not None:
-        water_density = model.pore.material_water_density.numpy()[model.particle_material.numpy()[:n]]
+        material = model.particle_material.numpy()[:n] if rows is None else read(model.particle_material)
+        water_density = model.pore.material_water_density.numpy()[material]
         hydrostatic = model.pore.hydrostatic(fields["position"], water_density)
-        fields["pore_pressure"] = state.particle_pore_pressure.numpy()[:n] + hydrostatic
+        fields["pore_pressure"] = read(state.particle_pore_pressure) + hydrostatic
     if state.particle_plastic_strain is not None:
-        fields["plastic_strain"] = state.particle_plastic_strain.numpy()[:n].astype(np.float64)
+        fields["plastic_strain"] = read(state.particle_plastic_strain).astype(np.float64)
     return fields
 
 
@@ -297,8 +307,9 @@ class Run:
     def _sample_probes(self, fields=None) -> None:
         if not self.probes.probes:
             return
-        fields = fields or host_fields(self.model, self.state)
-        for name, value in self.probes.sample(fields, self.solver.rigid.contact_forces()).items():
+        rows = None if fields is not None else self.probes.rows
+        fields = fields or host_fields(self.model, self.state, rows)
+        for name, value in self.probes.sample(fields, self.solver.rigid.contact_forces(), rows).items():
             self.results.append_series(name, self.step_index, self.time, value)
 
     def _record_pressure_solve(self) -> None:
