@@ -42,7 +42,7 @@ def _parser() -> argparse.ArgumentParser:
     val = sub.add_parser("validate", help="check a scene without running it")
     val.add_argument("scene", type=Path, help="scene file (TOML)")
     val.add_argument("--device", default=default_device(), help="Warp device the estimate is measured on")
-    val.add_argument("--no-estimate", action="store_true", help="check the scene only: build nothing, time nothing")
+    val.add_argument("--no-estimate", action="store_true", help="build the particles but time no step")
     study_command.add_parser(sub)
     return p
 
@@ -67,16 +67,15 @@ def _fail(code: int, message: str) -> int:
 
 
 def _validate(args) -> int:
+    from warpsph.environment import check_device
+    from warpsph.planning import plan
     from warpsph.scene_toml import load_scene
 
     scene = load_scene(args.scene)
+    lines = plan(scene, check_device(args.device), timed=not args.no_estimate).lines()
     print(f"{args.scene}: valid scene '{scene.name}' ({scene.simulation.dim}D, {len(scene.bodies)} bodies)")
-    if not args.no_estimate:
-        from warpsph.environment import check_device
-        from warpsph.planning import plan
-
-        for line in plan(scene, check_device(args.device)).lines():
-            print(f"  {line}")
+    for line in lines:
+        print(f"  {line}")
     return 0
 
 

@@ -43,14 +43,16 @@ class RunPlan:
 
     def lines(self) -> list[str]:
         bound = "at most " if self.capped else ""
+        time = (f"about {_duration(self.seconds)} on this machine ({1e3 * self.seconds_per_step:.3g} ms per step "
+                "measured), " if self.seconds_per_step > 0 else "")  # fmt: skip
         out = [f"{self.particles} particles, {self.virtual_points} virtual points, dt = {self.time_step:.4g} s",
-               f"{bound}{self.steps:,} steps, {self.frames} frames: about {_duration(self.seconds)} on this machine "
-               f"({1e3 * self.seconds_per_step:.3g} ms per step measured), about {_size(self.output_bytes)} of output"]
+               f"{bound}{self.steps:,} steps, {self.frames} frames: {time}about {_size(self.output_bytes)} of output"]
         return out + self.notes
 
 
-def plan(scene: Scene, device: str | None = None) -> RunPlan:
-    """Build the scene's first mechanical phase, time a few of its steps and count the rest."""
+def plan(scene: Scene, device: str | None = None, timed: bool = True) -> RunPlan:
+    """Build the scene's first mechanical phase (which checks what its particles show,
+    :mod:`warpsph.scene_reach`), time a few of its steps (unless not ``timed``) and count the rest."""
     from warpsph.builder import build
     from warpsph.runner import warm_up
     from warpsph.solver import Solver
@@ -62,7 +64,7 @@ def plan(scene: Scene, device: str | None = None) -> RunPlan:
     model, state = build(first, device=device)
     dt = first.time_step
     seconds_per_step = 0.0
-    if mechanical:
+    if mechanical and timed:
         phase = phases[mechanical[0]]
         damped = phase.kind in ("equilibrium", "safety")
         solver = Solver(model, damping=phase.damping if damped else None, pore_pressure=phase.pore_pressure)
@@ -99,7 +101,8 @@ def count_steps(scene: Scene) -> tuple[int, bool, int, list[str]]:
             steps += n
             frames += max(1, n // max(1, round(sc.output.frame_interval / sc.time_step)))
         elif phase.kind == "equilibrium":
-            steps, capped, frames = steps + phase.max_steps, True, frames + 1
+            frame_every = max(1, round(sc.output.frame_interval / sc.time_step))
+            steps, capped, frames = steps + phase.max_steps, True, frames + phase.max_steps // frame_every + 1
         elif phase.kind == "safety":
             steps, capped, frames = steps + 7 * phase.max_steps, True, frames + 8
         elif phase.kind == "flow":
