@@ -11,7 +11,7 @@ c_u = c′ cos φ′ + p′₀ sin φ′ = 6–8 kPa, about 0.2 of the drained c
 272–324 kPa (scene header). The drained limit is the same scene dry with the buoyant density
 ρ − ρ_w (the effective-stress problem when the excess pore pressure stays zero).
 
-Measured (dx = 0.25 m, one core, session 16): saturated 85 mm settlement at 0.5 s (57 mm at 0.2 s,
+Measured (dx = 0.25 m, one core): saturated 85 mm settlement at 0.5 s (57 mm at 0.2 s,
 arrested by 0.35 s as the excess pore pressure dissipates), excess pore pressure 1.5 m under the
 centre up to 41.8 kPa; drained 23.4 mm at 0.2 s and 24.8 mm at 0.5 s.
 """

@@ -6,15 +6,13 @@ H_c = 4 c N / γ = 2.91 m (the log-spiral upper bound 3.83 c N / γ = 2.79 m); t
 2 c N / γ = 1.46 m is also the depth at which the scene's start (geostatic with K0 = 0: σ′_xx = 0,
 σ′_yy = −γ z, an exact equilibrium with the traction-free cut face) first reaches the yield surface.
 
-Measured (dx = 0.1 m, 1 core; session 18, with the surface band's weight of the soil): H = 1.2 m:
+Measured (dx = 0.1 m, 1 core, with the surface band's weight of the soil): H = 1.2 m:
 ε̄ = 0 everywhere and crest settlement 0.013 mm after 0.5 s;
-H = 2.2 m (0.79 H_c): the toe yields locally, crest settlement 2.05 mm, not growing (1.45 mm before);
-H = 2.6 m (0.89 H_c): crest settlement 4.6 mm at 0.6 s, slowing down (not a test);
-H = 2.9 m (1.0 H_c): 22 mm at 0.55 s, slowing down, then the run breaks down at 0.56 s (not a test);
+H = 2.2 m (0.79 H_c): the toe yields locally, crest settlement 2.05 mm, not growing;
 H = 3.2 m (1.15 H_c): fails, crest settlement 22 mm at 0.3 s and accelerating;
 H = 4 m (1.43 H_c, the shipped scene): fails, crest settlement 38 mm at 0.25 s; a plastic band from the
 toe reaching the top surface 2.4 m behind the crest (fitted chord of its middle 60 % at 60° to the
-horizontal; 62° and 2.4 m at dx = 0.2 m, before session 18). The 2.6 m and 2.9 m numbers are older.
+horizontal).
 The band is curved, steepening upward into the zone of the tension crack, so it meets the top
 between the planar wedge from the toe to the bottom of a tension crack of depth z_c = 2 c N / γ,
 (H − z_c)/N = 1.78 m behind the crest, and the full planar wedge H/N = 2.80 m.
@@ -118,7 +116,7 @@ def test_shipped_cut_fails_along_a_band_from_the_toe(failing):
 
 def test_band_is_resolution_independent(failing, tmp_path_factory):
     """The same cut at dx = 0.2 m puts the band's top within 2 coarse spacings of the dx = 0.1 m one
-    (measured 2.4 m against 2.3 m before session 18, 2.4 m for the fine one since) and its chord within 5°."""
+    (the fine one reaches 2.4 m) and its chord within 5°."""
     coarse = run_cut(tmp_path_factory, 4.0, 0.25, dx=0.2)
     x_fine, angle_fine, _ = band(failing, 4.0, 0.1)
     x_coarse, angle_coarse, _ = band(coarse, 4.0, 0.2)

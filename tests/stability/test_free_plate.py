@@ -10,11 +10,11 @@ of 1 mm/s (standard deviation per component), Δx = 0.1 m, Courant 0.5. Nothing 
   (:func:`stability_tools.step_jacobian`, velocities and stresses of all 105 particles) is at most 1 + 1e-7.
 
 Measured (docs/stability.md, *Free plate*): with the full step's surface term per unit of the
-particle's share of the virtual points' fits (session 14) the seeded plate loses energy, and with the
-share floored at 0.45 (session 16), below a flat face's share of 0.61, one step's spectral radius is
-1.000000023, the time integrator's own growth ((ωΔt)⁴/8 at the plate's slowest pair; 1.000059, 0.10 /s,
-floored at 0.625, which left the face particles a little short). Before it the band created energy: a
-smooth mode of the plate (ω ≈ 222 rad/s) grew by 0.27 % per step (21 /s semi-discrete), at every
+particle's share of the virtual points' fits the seeded plate loses energy, and with the share
+floored at 0.45, below a flat face's share of 0.61, one step's spectral radius is 1.000000023, the
+time integrator's own growth ((ωΔt)⁴/8 at the plate's slowest pair; 1.000059, 0.10 /s, floored at
+0.625, which leaves the face particles a little short). Without the division the band creates energy:
+a smooth mode of the plate (ω ≈ 222 rad/s) grows by 0.27 % per step (21 /s semi-discrete), at every
 spacing tried (4.4, 11.7, 2.3 and 7.8 /s at Δx = 0.1, 0.05, 0.025 and 0.0125 m, Courant 0.5).
 """
 

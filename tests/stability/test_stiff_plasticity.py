@@ -14,9 +14,9 @@ not collapse onto one particle row.
 
 The band forms abruptly here: the shear stress drops from about 9.5 kPa towards the residual's 5 kPa
 within about 20 ms, and the unloading waves, doubled on reflection at the base, take it down to
-about 0 (*exploration*: smallest τ −0.14 kPa at Δx = 0.02 m, 0 at 0.01 m, at t = 0.10–0.17 s); the
-band then slips at several V. That is elastic dynamics, not instability, so the speed bound is the
-most two superposed elastic waves can carry while |τ| ≤ c outside the band.
+about 0 (measured outside the suite: smallest τ −0.14 kPa at Δx = 0.02 m, 0 at 0.01 m, at
+t = 0.10–0.17 s); the band then slips at several V. That is elastic dynamics, not instability, so
+the speed bound is the most two superposed elastic waves can carry while |τ| ≤ c outside the band.
 
 Criteria, checked every 20 steps to t = 0.2 s (top displaced 9.5 mm):
 
@@ -90,10 +90,10 @@ def test_stiff_softening_band_over_a_longer_run():
 
 
 def test_1d_points_do_not_move_along_x():
-    """The cause of the long run's blow-up, isolated (exploration: rows offset along x by 0.3 Δx
-    changed the 1D wave column's σ_yy by 7.4e-2 of its peak in 300 steps, because the neighbour
-    search, kernel and fit use the full 3D offset): a 1D body's points move along y only, however
-    fast it shears along x."""
+    """Why points move only along the axes a scene uses, isolated (measured outside the suite: rows
+    offset along x by 0.3 Δx change the 1D wave column's σ_yy by 7.4e-2 of its peak in 300 steps,
+    because the neighbour search, kernel and fit use the full 3D offset): a 1D body's points move
+    along y only, however fast it shears along x."""
     model, state, _ = march(shear_layer(0.02, STIFF), 200)
     for name, count in (("particle_q", model.particle_count), ("virtual_q", model.virtual_count)):
         assert np.all(getattr(state, name).numpy()[:count, 0] == 0.0), name
