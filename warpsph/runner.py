@@ -11,7 +11,9 @@ from __future__ import annotations
 
 import json
 import math
+import re
 import os
+import shutil
 import signal
 import threading
 import platform
@@ -125,6 +127,8 @@ def warm_up(solver: Solver, guard: Guard, state: State, scratch: State, t: float
     return time.perf_counter() - start
 
 
+OUTPUT_RESERVE = 1 << 20
+"""Bytes a frame or checkpoint write leaves free on the disk beyond twice its arrays [B]."""
 CHECK_EVERY = 10
 """Steps between two reads of an equilibrium phase's unbalanced force (or a dynamic phase's kinetic
 energy): each read waits for the device."""
@@ -145,7 +149,7 @@ class Run:
             self._start(scene, device, precision, end_time, resume, profile)
         except OSError as e:
             self.directory.release()
-            raise OutputError(f"cannot write the run's output in {self.out}: {e.strerror or e}") from None
+            raise OutputError(f"cannot write the run's output in {self.out}: {os_reason(e)}") from None
         except BaseException:
             self.directory.release()
             raise
@@ -291,17 +295,33 @@ class Run:
         self.resumed = True
 
     def _checkpoint(self) -> None:
-        self.checkpoint_step = self.step_index
         arrays = {name: arr.numpy() for name, arr in self.state.arrays().items()}
         if self.solver.layout is not None:
             arrays.update(self.solver.layout.arrays())
         arrays["displacement_origin"] = self.origin
         if self.flow is not None:
             arrays["flow_seeping"] = self.flow.seeping
+        self._room_for(arrays)
         save_checkpoint(self.out / CHECKPOINT, step=self.step_index, time=self.time, arrays=arrays,
                         meta={"time_step": self.dt, "scene": self.scene.name, "precision": self.model.spec.precision,
                               "phase": self.phase_index, "phases": json.dumps([asdict(r) for r in self.records]),
                               "loop": json.dumps(self.loop), "scene_record": self._scene_record})  # fmt: skip
+        self.checkpoint_step = self.step_index
+
+    @property
+    def _kept(self) -> str:
+        if self.checkpoint_step is None:
+            return "no checkpoint was written yet"
+        return f"the last checkpoint (step {self.checkpoint_step}) is kept"
+
+    def _room_for(self, arrays: dict) -> None:
+        """Stop with :class:`OutputError` before a write that the disk has no room for: HDF5 cut off
+        by a full disk leaves its files and its own state broken (the process can crash on exit)."""
+        need = 2 * sum(np.asarray(a).nbytes for a in arrays.values()) + OUTPUT_RESERVE
+        free = shutil.disk_usage(self.out).free
+        if free < need:
+            raise OutputError(f"cannot write the run's output in {self.out}: {free / 1e6:.3g} MB left on its disk, "
+                              f"the next write needs {need / 1e6:.3g} MB; {self._kept}")  # fmt: skip
 
     # -- output -----------------------------------------------------------------------------------
     def _sample_probes(self, fields=None) -> None:
@@ -323,6 +343,7 @@ class Run:
     def _write_frame(self, **attrs) -> None:
         """Write a frame of the current state (``attrs``: extra attributes of the frame)."""
         fields = host_fields(self.model, self.state)
+        self._room_for(fields)
         frame = {"position": fields["position"]}
         if self.staged:
             frame["id"] = self.model.particle_ids
@@ -736,10 +757,12 @@ class Run:
         except KeyboardInterrupt:
             status, message = "interrupted", f"interrupted at step {self.step_index}, t = {self.time:.6g} s"
             raise
+        except OutputError as e:
+            message = str(e)
+            raise
         except OSError as e:
-            status = "failed"
-            message = f"cannot write the run's output in {self.out}: {e.strerror or e}"
-            raise OutputError(f"{message}; the last checkpoint (step {self.checkpoint_step}) is kept") from None
+            message = f"cannot write the run's output in {self.out}: {os_reason(e)}"
+            raise OutputError(f"{message}; {self._kept}") from None
         finally:
             for sig, handler in handlers.items():
                 signal.signal(sig, handler)
@@ -759,6 +782,16 @@ class Run:
             finally:
                 self.directory.release()
         return self.summary
+
+
+def os_reason(error: OSError) -> str:
+    """The short reason of an I/O error ("No space left on device"), not HDF5's page of detail."""
+    if error.strerror:
+        return error.strerror
+    found = re.search(r"error message = '([^']+)'", str(error))
+    if found:
+        return found.group(1)
+    return str(error).splitlines()[0][:200] if str(error) else type(error).__name__
 
 
 def largest_displacement(positions: wp.array, start: np.ndarray) -> float:
