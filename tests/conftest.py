@@ -36,3 +36,21 @@ def device(request):
 @pytest.fixture
 def scenes_dir() -> Path:
     return SCENES
+
+
+def factor_of_safety_falls(scene_path: Path, out: Path, before: str, after: str):
+    """Run the staged scene at ``scene_path`` into ``out``; check that both safety phases ``before``
+    and ``after`` bracket a factor of safety, that the second is lower, and that one trial factor
+    stands in the first and fails in the second. Returns the run's results."""
+    import warpsph
+
+    summary = warpsph.run_scene(warpsph.load_scene(scene_path), out, device="cpu")
+    phases = {p["name"]: p for p in summary.phases}
+    first, second = phases[before], phases[after]
+    assert first["outcome"] == second["outcome"] == "converged"
+    print(f"\nfactor of safety in {before} {first['criterion']:.3f}, in {after} {second['criterion']:.3f}")
+    assert second["criterion"] < first["criterion"]
+    stands = {factor for factor, converged, *_ in first["trials"] if converged}
+    fails = {factor for factor, converged, *_ in second["trials"] if not converged}
+    assert stands & fails
+    return warpsph.load_results(out / "results.h5"), first["criterion"], second["criterion"]
