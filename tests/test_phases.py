@@ -229,7 +229,8 @@ def test_equilibrium_that_cannot_converge_in_its_cap_says_so(tmp_path):
     ({"activate": ["nothing"]}, "phases.gravity.activate[0]", "no body, load or boundary"),
     ({"deactivate": ["upper", "lower"]}, "phases.gravity.deactivate", "no body active"),
     ({"tolerance": 0.0}, "phases.gravity.tolerance", "must be"),
-    ({"changes": {"materials.clay.cohesion": 1e3}}, "phases.gravity.changes.materials.clay.cohesion", "no materials.clay"),
+    ({"changes": {"materials.clay.cohesion": 1e3}}, "phases.gravity.changes.materials.clay.cohesion",
+     "no materials.clay"),
     ({"changes": {"bodies.upper.material": "clay"}}, "phases.gravity", "unknown material"),
 ])  # fmt: skip
 def test_bad_phases_name_their_key(change, key, words):
