@@ -55,3 +55,31 @@ def test_first_model(tmp_path, capsys):
     oedometric = 20e6 * 0.7 / (1.3 * 0.4)
     assert 1e3 * 2000.0 * G * 36.0 / (2 * oedometric) == pytest.approx(13.1, abs=0.05)
     quoted("first_model.md", "ρ g H² / (2 M) = 13.1 mm", "26.9 MPa")
+
+
+@pytest.mark.slow
+def test_slope_factor_of_safety(tmp_path):
+    """docs/tutorials/slope_factor_of_safety.md: the shipped scenes/slope_fos.toml (about 5 min)."""
+    page = "slope_factor_of_safety.md"
+    scene = warpsph.load_scene(TUTORIALS.parent.parent / "scenes" / "slope_fos.toml")
+    summary = warpsph.run_scene(scene, tmp_path, device="cpu")
+    gravity, safety, runout = summary.phases[1:]
+    assert gravity["outcome"] == "converged" and abs(gravity["steps"] - 670) <= 20
+    quoted(page, "converged after 670 steps")
+    assert safety["criterion"] == pytest.approx(1.43, abs=0.01)
+    trials = {round(factor, 3): bool(stood) for factor, stood, *_ in safety["trials"]}
+    assert trials[1.422] and not trials[1.438]
+    quoted(page, "factor of safety is **1.43 ± 0.01**", "trial F = 1.422: stands", "trial F = 1.438: fails")
+    results = warpsph.load_results(tmp_path / "results.h5")
+    names = [phase["name"] for phase in results.phases]
+    failed = [i for i in range(len(results.times))
+              if results.frame_phases[i] == names.index("safety") and results.frame_attrs(i).get("converged") == 0]
+    frame = results.frame(failed[0])
+    moved = np.linalg.norm(frame["displacement"], axis=1)
+    sliding = frame["position"][moved > 0.5 * moved.max()]
+    assert sliding[:, 0].min() == pytest.approx(12.9, abs=0.05) and sliding[:, 0].max() == pytest.approx(35.9, abs=0.05)
+    quoted(page, "sliding mass from x = 12.9 to 35.9 m")
+    front, crest = results.series("front")[1], results.series("crest_settlement")[1]
+    assert front[-1] == pytest.approx(10.04, abs=0.005) and crest[-1] == pytest.approx(2.21, abs=0.005)
+    assert runout["criterion"] == pytest.approx(0.029, abs=0.001)
+    quoted(page, "from 12.00 to 10.04 m", "settles 2.21 m", "2.9 % of its peak")
