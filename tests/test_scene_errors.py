@@ -443,6 +443,7 @@ REACH_CASES = {
     "base's side reversed": (edit('kind = "fixed"\naxis = "y"\nposition = 0.0\nside = "min"',
                                   'kind = "fixed"\naxis = "y"\nposition = 0.0\nside = "max"'), "bodies.column"),
     "overlapping bodies": (append(SECOND_BODY.format(name="upper", x0=0, y0=1.0, x1=0.5, y1=2.0)), "bodies.upper"),
+    "body thinner than one cell": (edit("dx = 0.1", "dx = 1.0"), "bodies.column"),
     "rigid region with no particle": (append(RIGID.format(kind="velocity", extra="velocity = [0, -0.1]\nregion = { "
                                                           "min = [5, 5], max = [6, 6] }")), "loads.cap.region"),
 }
