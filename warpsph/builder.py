@@ -176,8 +176,8 @@ def build(scene: Scene, device: str | None = None, precision: str | None = None)
     if two_set:
         virt_pts, virt_body = merge_unique([fill_cells(b, dx, dim) for b in scene.bodies], dx)
         if not len(virt_pts):
-            raise SceneError(f"bodies.{scene.bodies[0].name}", f"holds no virtual stress point at dx = {dx:g} m: the "
-                             "two-set scheme needs a body at least one dx thick along every axis; refine dx")  # fmt: skip
+            raise SceneError(f"bodies.{scene.bodies[0].name}", f"holds no virtual stress point at dx = {dx:g} m: "
+                             "the two-set scheme needs a body at least one dx thick along every axis; refine dx")
     else:
         virt_pts, virt_body = np.zeros((0, 3)), np.zeros(0, dtype=np.int32)
     vg_plan = plan_ghosts(virt_pts, mirrors, band, tol)
