@@ -2,9 +2,9 @@
 
 README.md, the docs, the scenes' comments, the package's source and the tests say what the code and
 the method are and how to use them. What was tried and when belongs in the git history, so this
-test fails, listing every file:line, wherever one of these phrases appears: "session N",
-"exploration", "tried, not kept", "not tested (older)" and "round N" (a numbered round of past
-work; "rounded" and "round-off" are not matched). Plain file reading, no simulation.
+test fails, listing every file:line, wherever a phrase of FORBIDDEN appears (numbered rounds of past
+work and the words that narrate attempts; "rounded" and "round-off" are not matched). Plain file
+reading, no simulation.
 """
 
 import re

@@ -22,7 +22,7 @@ from warpsph.physics.plasticity import material_struct, viscoplastic_material
 from warpsph.pore_water import build_pore_water
 from warpsph.errors import SceneError
 from warpsph.scene import AXES, EXTENT_TOLERANCE, Scene
-from warpsph.scene_reach import check_reach
+from warpsph.scene_reach import check_reach, plane_section
 from warpsph.sph.spec import Spec
 from warpsph.stages.ghost_layout import GHOST_MARGIN, ON_PLANE, plan_ghosts
 from warpsph.stages.rigid import RIGID_LOAD_KINDS
@@ -127,8 +127,7 @@ def _check_drained_planes(scene: Scene, planes, on_plane: np.ndarray, points: np
         on = np.any(on_plane == p_idx, axis=1)
         tol = EXTENT_TOLERANCE * scene.simulation.dx
         if drainage.kind != "impermeable" and not np.any(drainage.covers(points[on], plane[1], tol)):
-            section = "boundaries" if any(b.name == name for b in scene.boundaries) else "loads"
-            raise SceneError(f"{section}.{name}.position",
+            raise SceneError(f"{plane_section(scene, name)}.{name}.position",
                              f"no particle lies on this {drainage.kind} plane ({AXES[plane[1]]} = {plane[2]:g})"
                              f"{' inside its drainage.extent' if drainage.extent else ''}; put it on a face of a "
                              "body, on the lattice of spacing dx")  # fmt: skip

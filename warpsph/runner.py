@@ -81,17 +81,19 @@ class RunSummary:
         return self.particles * self.steps / self.wall_seconds if self.wall_seconds > 0 else 0.0
 
 
-def host_fields(model: Model, state: State, rows: np.ndarray | None = None) -> dict[str, np.ndarray]:
+def host_fields(model: Model, state: State, rows: np.ndarray | None = None,
+                index: wp.array | None = None) -> dict[str, np.ndarray]:  # fmt: skip
     """Owned-particle fields on the host: position, velocity (N,3) [m, m/s], stress (N,3,3) [Pa],
     density [kg/m³], with pore water the total pore pressure (N,) [Pa] and with plasticity the
     equivalent plastic strain (N,) [-]. ``rows``: only these particles, gathered on the device
-    before the copy."""
+    before the copy (``index``: the same rows as a device int32 array, when one is kept)."""
     n = model.particle_count
     if rows is None or not len(rows):
         def read(arr):
             return arr.numpy()[: n if rows is None else 0]
     else:
-        index = wp.array(rows.astype(np.int32), dtype=wp.int32, device=model.device)
+        if index is None:
+            index = wp.array(rows.astype(np.int32), dtype=wp.int32, device=model.device)
 
         def read(arr):
             return wp.indexedarray(arr, [index]).numpy()
@@ -228,6 +230,7 @@ class Run:
         self.scratch.assign(self.state)
         self.guard = Guard(self.model, phase_scene_.speed_limit)
         self.probes = Probes(self.model)
+        self._probe_index = None  # the probes' rows on the device, made at the first sample
         self.dt = phase_scene_.time_step
         self.origin = origin
         if phase.reset_displacements:
@@ -328,7 +331,9 @@ class Run:
         if not self.probes.probes:
             return
         rows = None if fields is not None else self.probes.rows
-        fields = fields or host_fields(self.model, self.state, rows)
+        if rows is not None and self._probe_index is None and len(rows):  # once per phase
+            self._probe_index = wp.array(rows.astype(np.int32), dtype=wp.int32, device=self.model.device)
+        fields = fields or host_fields(self.model, self.state, rows, self._probe_index)
         for name, value in self.probes.sample(fields, self.solver.rigid.contact_forces(), rows).items():
             self.results.append_series(name, self.step_index, self.time, value)
 

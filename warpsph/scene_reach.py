@@ -57,15 +57,19 @@ def check_reach(scene: Scene, planes, on_plane: np.ndarray, points: np.ndarray, 
 def _check_bodies_inside_planes(scene: Scene, planes, points: np.ndarray, owner: np.ndarray) -> None:
     """Every particle inside every plane's half-space (a plane bounds the domain on its ``side``)."""
     tol = 1e-6 * scene.simulation.dx
-    for _name, axis, position, sign, *_ in planes:
+    for name, axis, position, sign, *_ in planes:
         beyond = (points[:, axis] - position) * sign > tol
         if np.any(beyond):
             body = scene.bodies[int(owner[np.argmax(beyond)])].name
-            section = "boundaries" if any(b.name == _name for b in scene.boundaries) else "loads"
-            inside = "<=" if sign > 0 else ">="
-            raise SceneError(f"bodies.{body}", f"{int(np.sum(beyond))} particles lie beyond {section}.{_name} (the "
+            inside, plane = ("<=" if sign > 0 else ">="), f"{plane_section(scene, name)}.{name}"
+            raise SceneError(f"bodies.{body}", f"{int(np.sum(beyond))} particles lie beyond {plane} (the "
                              f"domain is {AXES[axis]} {inside} {position:g} on its side {'max' if sign > 0 else 'min'}"
                              "); move the body or the plane, or check the plane's side")  # fmt: skip
+
+
+def plane_section(scene: Scene, name: str) -> str:
+    """The scene section a plane comes from: "boundaries", or "loads" for a traction load's face."""
+    return "boundaries" if any(b.name == name for b in scene.boundaries) else "loads"
 
 
 def _check_overlaps(scene: Scene, body_points: list[np.ndarray], dx: float) -> None:
