@@ -59,7 +59,7 @@ def plan(scene: Scene, device: str | None = None, timed: bool = True) -> RunPlan
     from warpsph.stages.guard import Guard
 
     phases = default_phases(scene)
-    mechanical = [i for i, p in enumerate(phases) if p.kind not in ("k0", "flow")]
+    mechanical = [i for i, p in enumerate(phases) if p.kind not in ("k0", "flow", "consolidation")]
     first = phase_scene(scene, mechanical[0] if mechanical else 0) if scene.phases else scene
     model, state = build(first, device=device)
     dt = first.time_step
@@ -105,9 +105,9 @@ def count_steps(scene: Scene) -> tuple[int, bool, int, list[str]]:
             steps, capped, frames = steps + phase.max_steps, True, frames + phase.max_steps // frame_every + 1
         elif phase.kind == "safety":
             steps, capped, frames = steps + 7 * phase.max_steps, True, frames + 8
-        elif phase.kind == "flow":
+        elif phase.kind in ("flow", "consolidation"):
             frames += 1 if phase.steady else phase.frames
-            notes.append(f"phase {phase.name} (flow): implicit steps sized by accuracy, not counted")
+            notes.append(f"phase {phase.name} ({phase.kind}): implicit steps sized by accuracy, not counted")
     if steps > MANY_STEPS and not capped:
         notes.append(f"warning: {steps:,} steps, more than {MANY_STEPS:,}: check simulation.end_time, and the "
                      "units of the materials' moduli (Pa) and densities (kg/m3), which set the time step")  # fmt: skip

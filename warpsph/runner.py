@@ -41,10 +41,13 @@ from warpsph.phases import FactorSearch, phase_scene, reduced_strength
 from warpsph.probes import Probes
 from warpsph.scene import FAILURE_DISPLACEMENT, Phase, Scene
 from warpsph.solver import Solver
+from warpsph.stages.consolidation import FixedStressSplit
 from warpsph.stages.groundwater import GroundwaterFlow
 from warpsph.stages.guard import Guard
 
 RESULTS, CHECKPOINT, RECORD = "results.h5", "checkpoint.h5", "run.json"
+IMPLICIT = ("flow", "consolidation")
+"""Phase kinds that advance in implicit time steps sized by accuracy."""
 
 
 @dataclass
@@ -223,9 +226,10 @@ class Run:
         self.phase_scene = phase_scene_
         if phase.kind == "k0":
             self._k0_procedure()
-        damped = phase.kind in ("equilibrium", "safety")
+        damped = phase.kind in ("equilibrium", "safety", "consolidation")
+        pore_pressure = "fixed" if phase.kind == "consolidation" else phase.pore_pressure
         self.solver = Solver(self.model, profile=self.profile, damping=phase.damping if damped else None,
-                             pore_pressure=phase.pore_pressure)  # fmt: skip
+                             pore_pressure=pore_pressure)  # fmt: skip
         self.scratch = self.model.state()
         self.scratch.assign(self.state)
         self.guard = Guard(self.model, phase_scene_.speed_limit)
@@ -238,11 +242,14 @@ class Run:
         self.probes.displacement_origin = self.origin
         self.loop = {}
         self._load_scale = None  # the phase's constant parts of the applied force (_applied_force)
-        self.flow = None
-        if phase.kind == "flow":
+        self.flow = self.split = None
+        if phase.kind in IMPLICIT:
             height = self._height(self.model.particle_x0)
             self.flow = GroundwaterFlow(self.model, self.solver, self.state, phase_scene_.reservoirs, phase.tolerance,
                                         height)  # fmt: skip
+        if phase.kind == "consolidation":
+            self.split = FixedStressSplit(self.model, self.solver, self.flow, self._equilibrate_held,
+                                          lambda: self.state)  # fmt: skip
         self.phase_start_step, self.phase_start_time = self.step_index, now
         self.records.append(PhaseRecord(phase.name, phase.kind, self.step_index, self.phase_start_time))
 
@@ -262,8 +269,8 @@ class Run:
     @property
     def phase_time(self) -> float:
         """Time since the start of the current phase [s]: the loads' time functions run on it (a flow
-        phase's implicit steps keep their own sum)."""
-        if self.phase.kind == "flow":
+        and consolidation phase's implicit steps keep their own sum)."""
+        if self.phase.kind in IMPLICIT:
             return self.loop.get("time", 0.0)
         return (self.step_index - self.phase_start_step) * self.dt
 
@@ -415,7 +422,7 @@ class Run:
 
     # -- one step ---------------------------------------------------------------------------------
     def _warm_up(self) -> None:
-        if self.flow is not None:  # no mechanical step: the flow kernels compile at their first use
+        if self.phase.kind == "flow":  # no mechanical step: the flow kernels compile at their first use
             return
         self.summary.compile_seconds += warm_up(self.solver, self.guard, self.state, self.scratch, self.phase_time,
                                                 self.dt)  # fmt: skip
@@ -477,7 +484,7 @@ class Run:
 
     def _stop_step(self) -> int | None:
         """The step at which ``--end-time`` stops the run (None without it, or without phases)."""
-        if self.stop_time is None or not self.staged:
+        if self.stop_time is None or not self.staged or self.phase.kind in IMPLICIT:
             return None
         return self.phase_start_step + math.ceil((self.stop_time - self.phase_start_time) / self.dt - 1e-9)
 
@@ -516,9 +523,7 @@ class Run:
 
     def _run_flow(self, progress) -> str:
         """Groundwater flow through the fixed skeleton (:class:`~warpsph.stages.groundwater.GroundwaterFlow`):
-        the steady state, or a transient of the phase's duration in implicit steps sized by the pressure
-        change they make (``STEP_CHANGE``), halved after one whose iteration fails, ending on each of
-        the phase's frame times."""
+        the steady state, or a transient of the phase's duration (:meth:`_implicit_steps`)."""
         phase, flow, record = self.phase, self.flow, self.records[-1]
         if phase.steady:
             converged = flow.solve(0.0, None, max_iterations=phase.max_steps)
@@ -529,10 +534,36 @@ class Run:
             self._write_frame()
             self._checkpoint()
             return CONVERGED if converged else NOT_CONVERGED
+        return self._implicit_steps(flow, progress)
+
+    def _run_consolidation(self, progress) -> str:
+        """The coupled quasi-static transient of the phase's duration
+        (:class:`~warpsph.stages.consolidation.FixedStressSplit`, :meth:`_implicit_steps`)."""
+        return self._implicit_steps(self.split, progress)
+
+    def _equilibrate_held(self, t: float) -> tuple[bool, State]:
+        """A consolidation iterate's skeleton: equilibrium under the state's pore pressures held, the
+        loads at phase time ``t`` [s]; (converged within the phase's step cap, the state)."""
+        self.loop["time"] = t
+        self.scratch.assign(self.state)
+        self.solver.hold_pore_pressure(self.state)
+        self.loop.pop("ratio", None)
+        converged, _ratio = self._equilibrate(None, self.step_index, output=False)
+        return converged, self.state
+
+    def _implicit_steps(self, stepper, progress) -> str:
+        """A transient of the phase's duration in implicit steps of ``stepper`` (the flow, or the
+        consolidation's split: ``solve(t, dt)``, ``undo()``, ``step_change``) sized by the pressure
+        change they make (``STEP_CHANGE``), halved after one whose iteration fails, ending on each of
+        the phase's frame times. A flow phase's ``max_steps`` caps its steps; a consolidation phase
+        whose skeleton does not reach equilibrium within ``max_steps`` ends not converged."""
+        phase, record = self.phase, self.records[-1]
         frame_times = phase.duration * np.arange(1, phase.frames + 1) / phase.frames
         dt = self.loop.get("dt", phase.time_step or phase.duration / 1000.0)
         stop = math.inf if self.stop_time is None else self.stop_time - self.phase_start_time
         rejected = None  # (change, step) of the first try of a step being retried shorter
+        if stepper is self.split:  # the split's scale of the pressure changes, kept in checkpoints
+            stepper.pressure_scale = self.loop.get("pressure_scale", stepper.pressure_scale)
         while self.phase_time < phase.duration * (1.0 - 1e-12):
             t = self.phase_time
             if t >= stop:
@@ -540,30 +571,38 @@ class Run:
             self._stop_if_interrupted()
             target = float(frame_times[np.searchsorted(frame_times, t * (1.0 + 1e-12) + 1e-300, side="right")])
             step = min(dt, target - t)
-            if self.step_index - self.phase_start_step >= phase.max_steps:
+            steps = self.loop.get("steps", 0)
+            if stepper is self.flow and steps >= phase.max_steps:
                 return NOT_CONVERGED
-            converged = flow.solve(t + step, step)
+            converged = stepper.solve(t + step, step)
+            self.loop["time"] = t
+            if getattr(stepper, "collapsed", False):
+                self._write_frame()
+                return NOT_CONVERGED
             smallest = 1e-12 * phase.duration
             # a change that does not shrink with the step (a seepage face's exit point moving on, soil
             # that follows its neighbours at once) is not the step's error: the step stands
-            step_driven = rejected is None or flow.step_change < 0.75 * rejected[0]
-            if not converged or (flow.step_change > 1.5 and step_driven and step > smallest):
-                dt = 0.5 * step if not converged else step * max(0.25, 0.8 / flow.step_change)
+            step_driven = rejected is None or stepper.step_change < 0.75 * rejected[0]
+            if not converged or (stepper.step_change > 1.5 and step_driven and step > smallest):
+                dt = 0.5 * step if not converged else step * max(0.25, 0.8 / stepper.step_change)
                 if dt < smallest:
-                    self._unstable(f"the groundwater flow does not converge even with a time step of {step:.3g} s")
+                    self._unstable(f"the {phase.kind} does not converge even with a time step of {step:.3g} s")
                 if converged:  # too large a change: put the step back
-                    flow.undo()
-                    rejected = (flow.step_change, step if rejected is None else rejected[1])
+                    stepper.undo()
+                    rejected = (stepper.step_change, step if rejected is None else rejected[1])
                 continue
             self.loop["time"] = t + step if target - (t + step) > 1e-9 * phase.duration else target
             if not step_driven:  # the next step is tried as long as this one was first
                 dt = rejected[1]
             elif step >= dt:  # not a step shortened to meet a frame time
-                dt = step * min(1.5, 0.9 / max(flow.step_change, 1e-300))
+                dt = step * min(1.5, 0.9 / max(stepper.step_change, 1e-300))
             rejected = None
-            self.loop["dt"] = dt
-            self.step_index += 1
-            self.summary.steps += 1
+            self.loop["dt"], self.loop["steps"] = dt, steps + 1
+            if stepper is self.flow:
+                self.step_index += 1
+                self.summary.steps += 1
+            else:
+                self.loop["pressure_scale"] = stepper.pressure_scale
             record.criterion = self.loop["time"]
             self._flow_series()
             if not np.all(np.isfinite(self.state.particle_pore_pressure.numpy())):
@@ -582,6 +621,8 @@ class Run:
             self.results.append_series(f"discharge_{name}", self.step_index, self.time, value)
         self.results.append_series("storage_rate", self.step_index, self.time, flow.storage_rate)
         self.results.append_series("flow_iterations", self.step_index, self.time, flow.iterations)
+        if self.split is not None:
+            self.results.append_series("consolidation_iterations", self.step_index, self.time, self.split.iterations)
 
     def _applied_force(self) -> float:
         """Σ m‖g‖ over the particles plus the loads' resultants at the phase's time [N/m or N]: the
@@ -725,7 +766,7 @@ class Run:
                 self._checkpoint()
             loops = {"k0": lambda progress: CONVERGED, "dynamic": self._run_dynamic,
                      "equilibrium": self._run_equilibrium, "safety": self._run_safety,
-                     "flow": self._run_flow}  # fmt: skip
+                     "flow": self._run_flow, "consolidation": self._run_consolidation}  # fmt: skip
             while True:
                 record = self.records[-1]
                 outcome = loops[self.phase.kind](progress)

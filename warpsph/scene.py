@@ -466,7 +466,7 @@ class Output:
     """Probes are sampled every this many steps."""
 
 
-PHASE_KINDS = ("k0", "equilibrium", "safety", "dynamic", "flow")
+PHASE_KINDS = ("k0", "equilibrium", "safety", "dynamic", "flow", "consolidation")
 FAILURE_DISPLACEMENT = 0.02
 """A safety trial's default failure displacement as a fraction of the bodies' height [-]. Measured on
 Griffiths & Lane's slope (12 m of soil), the largest displacement of trials that come to rest: at
@@ -487,7 +487,10 @@ class Phase:
     reduction, each trial an equilibrium from the phase's start with the strengths divided by the
     trial factor; "dynamic": the unmodified solver for ``duration`` [s] (or until the mass is at rest);
     "flow": groundwater flow through the fixed skeleton in implicit steps, a transient of ``duration``
-    [s] or the ``steady`` state, with seepage faces and reservoirs (docs/scenes.md, *Groundwater flow*).
+    [s] or the ``steady`` state, with seepage faces and reservoirs (docs/scenes.md, *Groundwater flow*);
+    "consolidation": the coupled quasi-static transient of ``duration`` [s] in the flow's implicit steps,
+    the skeleton brought to equilibrium (as in "equilibrium") under each step's pore pressures
+    (docs/scenes.md, *Consolidation*).
     """
 
     name: str = "phase"
@@ -497,13 +500,14 @@ class Phase:
     tolerance: float = 1.0e-5
     """Equilibrium and safety: the unbalanced-force ratio at which equilibrium is reached [-]; flow: the
     largest pressure change of an iteration, over ρ_w g times the bodies' height, at which the
-    pressure iteration of a step (or of the steady state) has converged [-]."""
+    pressure iteration of a step (or of the steady state) has converged [-]; consolidation: both."""
     max_steps: int = 20000
     """Equilibrium: the step cap (a phase that reaches it has not converged); safety: the cap of each
-    trial (a trial that reaches it has failed); dynamic and flow: a cap on the phase's steps too (a
-    steady flow phase's pressure iterations)."""
+    trial (a trial that reaches it has failed); consolidation: the cap of each equilibrium of the
+    skeleton (a phase whose skeleton does not reach equilibrium within it ends not converged); dynamic
+    and flow: a cap on the phase's steps too (a steady flow phase's pressure iterations)."""
     damping: float = 0.8
-    """Equilibrium and safety: the local damping coefficient α in [0, 1) [-]."""
+    """Equilibrium, safety and consolidation: the local damping coefficient α in [0, 1) [-]."""
     at_rest: float = 0.0
     """Dynamic: end the phase once the kinetic energy has fallen below this fraction of its peak in
     the phase [-] (0: run the whole duration)."""
@@ -524,10 +528,11 @@ class Phase:
     steady: bool = False
     """Flow: solve for the steady state instead of a transient of ``duration``."""
     time_step: float = 0.0
-    """Flow: the first implicit time step [s]; 0: ``duration`` / 1000. Later steps grow while the
+    """Flow and consolidation: the first implicit time step [s]; 0: ``duration`` / 1000. Later steps grow while the
     pressure iteration converges quickly and shrink where it does not."""
     frames: int = 10
-    """Flow: frames written over the phase, evenly in time (a steady phase writes its end)."""
+    """Flow and consolidation: frames written over the phase, evenly in time (a steady phase writes its
+    end)."""
     factor_tolerance: float = 0.01
     """Safety: the search stops when the factor of safety is bracketed to ± this [-]."""
     factor_max: float = 10.0

@@ -274,14 +274,22 @@ class Solver:
         if not self.fixed_pore_pressure:
             return si.particle_pore_pressure
         if self.held_pressure is None:
-            m, pw = self.model, self.model.pore
-            self.held_pressure = wp.clone(si.particle_pore_pressure)
-            launch_rows(groundwater_kernels(m.spec)["bishop_excess"], m.particle_count,
-                        [si.particle_q, m.particle_material, pw.material_water_density, m.spec.vec3(*pw.gravity),
-                         wp.float64(pw.water_table), pw.material_retention, pw.material_retention_alpha,
-                         pw.material_retention_n, pw.material_residual_saturation, si.particle_pore_pressure,
-                         self.held_pressure], m.device)  # fmt: skip
+            self.hold_pore_pressure(si)
         return self.held_pressure
+
+    def hold_pore_pressure(self, state: State) -> None:
+        """Fixed pore pressures: hold those of ``state`` from the next step on (a consolidation step's
+        new iterate)."""
+        m, pw = self.model, self.model.pore
+        if self.held_pressure is None:
+            self.held_pressure = wp.clone(state.particle_pore_pressure)
+        else:
+            wp.copy(self.held_pressure, state.particle_pore_pressure)
+        launch_rows(groundwater_kernels(m.spec)["bishop_excess"], m.particle_count,
+                    [state.particle_q, m.particle_material, pw.material_water_density, m.spec.vec3(*pw.gravity),
+                     wp.float64(pw.water_table), pw.material_retention, pw.material_retention_alpha,
+                     pw.material_retention_n, pw.material_residual_saturation, state.particle_pore_pressure,
+                     self.held_pressure], m.device)  # fmt: skip
 
     # -- collocated baseline --------------------------------------------------------------------
     def _init_collocated(self) -> None:

@@ -330,8 +330,9 @@ def _check_changing_water(scene: Scene) -> None:
     """Drainage time functions act in flow phases: drainage that changes in time may not reach a
     phase that would hold it constant."""
     kinds = [p.kind for p in scene.phases] or ["dynamic"]
-    mechanical = [k for k in kinds if k not in ("flow", "k0")]
-    coupled = [p for p in scene.phases if p.kind not in ("flow", "k0") and p.pore_pressure == "coupled"]
+    mechanical = [k for k in kinds if k not in ("flow", "consolidation", "k0")]
+    coupled = [p for p in scene.phases
+               if p.kind in ("equilibrium", "safety", "dynamic") and p.pore_pressure == "coupled"]  # fmt: skip
     if not scene.phases and scene.effects.pore_water:
         coupled = [Phase(name="the scene's one dynamic phase")]
     for name, material in scene.materials.items():
@@ -411,7 +412,7 @@ def _check_phases(scene: Scene) -> None:
         check_choice(f"{key}.pore_pressure", phase.pore_pressure, ("coupled", "fixed"))
         if phase.pore_pressure == "fixed":
             _needs_pore_water(f"{key}.pore_pressure", scene.effects, '"fixed" pore pressures ')
-        if phase.kind == "flow":
+        if phase.kind in ("flow", "consolidation"):
             _check_flow_phase(phase, key, scene)
         if phase.kind == "safety" and not scene.effects.plasticity:
             raise SceneError(f"{key}.kind", '"safety" reduces strengths: it needs effects.plasticity = true and '
@@ -445,7 +446,10 @@ def _check_phases(scene: Scene) -> None:
 
 def _check_flow_phase(phase: Phase, key: str, scene: Scene) -> None:
     if not scene.effects.pore_water:
-        raise SceneError(f"{key}.kind", '"flow" moves the pore water: it needs effects.pore_water = true')
+        raise SceneError(f"{key}.kind", f'"{phase.kind}" moves the pore water: it needs effects.pore_water = true')
+    if phase.kind == "consolidation" and phase.steady:
+        raise SceneError(f"{key}.steady", 'a consolidation phase is a transient of its duration; the steady state '
+                         'is a "flow" phase\'s')  # fmt: skip
     if not phase.steady:
         check_range(f"{key}.duration", phase.duration, POSITIVE)
     check_range(f"{key}.time_step", phase.time_step, NON_NEGATIVE)

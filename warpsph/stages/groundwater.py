@@ -45,8 +45,7 @@ class GroundwaterFlow:
         m, pw, dev = model, model.pore, model.device
         n = m.particle_count
         self.k = groundwater_kernels(m.spec)
-        for stage in ("ghosts", "neighbours", "corrections"):
-            solver.stages[solver.stage_names.index(stage)].run(state, state, 0.0, m.scene.time_step)
+        self.update_geometry(solver, state)
         self.projection = solver.projection
         self.lists = solver.real_to_real
         self.reservoirs = reservoirs
@@ -73,6 +72,9 @@ class GroundwaterFlow:
         self.dirichlet, self.value, self.tag = zeros(n, wp.int32), zeros(n), zeros(n, wp.int32)
         self.diag, self.rhs, self.released, self.stored = zeros(n), zeros(n), zeros(n), zeros(n)
         self.increment, self.increment_rhs = zeros(n), zeros(n)
+        self.coupling_storage, self.coupling_source = zeros(n), zeros(n)
+        """β [1/Pa] and s [-] of a consolidation step's rows (:mod:`warpsph.stages.consolidation`); zero
+        in a flow phase."""
         self.discharge_rows = zeros(n * self.n_tags)
         size = max(1, self.lists.indices.shape[0])
         self.weight, self.column = zeros(size), zeros(size, wp.int32)
@@ -82,13 +84,21 @@ class GroundwaterFlow:
         self.seeping = (self.surface & (self._excess() + self.hydro >= 0.0)).astype(np.int32)
         """1 on the seepage-face particles held at atmospheric pressure (water leaves there)."""
         self.iterations = 0
+        self.largest_change = 0.0
+        """The last step's largest pressure change off the held rows [Pa]."""
         self.step_change = 0.0
-        """The last step's largest pressure change off the held rows over STEP_CHANGE × ``scale`` [-]."""
+        """``largest_change`` over STEP_CHANGE × ``scale`` [-]."""
         self.discharge: dict[str, float] = {}
         """The last step's discharge [m³/s, per metre in 2D] out of the body through each boundary,
         load, seepage face and reservoir that passes water (negative: into it)."""
         self.storage_rate = 0.0
         """The last step's rate of growth of the water held in the body [m³/s, per metre in 2D]."""
+
+    @staticmethod
+    def update_geometry(solver, state: State) -> None:
+        """Ghosts, neighbour lists and corrections of ``solver`` at the positions of ``state``."""
+        for stage in ("ghosts", "neighbours", "corrections"):
+            solver.stages[solver.stage_names.index(stage)].run(state, state, 0.0, solver.model.scene.time_step)
 
     def _excess(self) -> np.ndarray:
         """A host copy of the owned particles' excess pore pressure (on the CPU ``numpy()`` is a view)."""
@@ -124,7 +134,8 @@ class GroundwaterFlow:
                 nl.offsets, nl.indices, self.state.particle_q, m.particle_origin, m.particle_mass,
                 self.state.particle_density, m.particle_material, pw.material_permeability, pw.material_inv_biot,
                 self.relative, self.saturation, self.capacity, self.saturation_start, pw.material_porosity, p_iter,
-                self.p_start, m.particle_ghost_source, m.particle_ghost_planes, m.plane_axis, b.plane_position,
+                self.p_start, self.coupling_storage, self.coupling_source, m.particle_ghost_source,
+                m.particle_ghost_planes, m.plane_axis, b.plane_position,
                 m.plane_sign, m.plane_kind, pw.plane_drainage, pw.plane_drained_lo, pw.plane_drained_hi,
                 self.plane_pressure, self.plane_head, self.plane_inflow, pw.material_water_density,
                 m.spec.vec3(*pw.gravity), wp.float64(pw.water_table), self.dirichlet]  # fmt: skip
@@ -137,14 +148,19 @@ class GroundwaterFlow:
                      pw.material_retention_n, pw.material_residual_saturation, pw.material_porosity, p,
                      out_saturation or self.saturation, self.capacity, self.relative], m.device)  # fmt: skip
 
-    def solve(self, t: float, dt: float | None, max_iterations: int = MAX_ITERATIONS) -> bool:
+    def solve(self, t: float, dt: float | None, max_iterations: int = MAX_ITERATIONS,
+              start: wp.array | None = None) -> bool:
         """Advance the pore pressure in the state to time ``t`` by one implicit step of ``dt`` [s]
         (None: to the steady state, with up to ``max_iterations`` iterations); False, with the
-        pressure put back, if the iteration did not converge."""
+        pressure put back, if the iteration did not converge. ``start``: the pressures at the step's
+        start when the state's are already an iterate of it (a consolidation step's)."""
         m, dev = self.model, self.model.device
         n = m.particle_count
         p = self.state.particle_pore_pressure
-        wp.copy(self.p_start, p, count=n)
+        wp.copy(self.p_start, p if start is None else start, count=n)
+        if self.lists.indices.shape[0] > self.weight.shape[0]:  # the skeleton moved: its lists grew
+            self.weight = wp.zeros(self.lists.indices.shape[0], dtype=wp.float64, device=dev)
+            self.column = wp.zeros(self.lists.indices.shape[0], dtype=wp.int32, device=dev)
         self._seeping_start = self.seeping.copy()
         base, value, tag, candidates = self._conditions(t)
         self.tag.assign(tag)
@@ -175,7 +191,8 @@ class GroundwaterFlow:
             if change < self.tolerance and flips == 0:
                 self._record(args)
                 moved = np.abs(full - self.p_start.numpy())[(dirichlet == 0) & ~candidates & self._stores_water()]
-                self.step_change = float(np.max(moved, initial=0.0)) / (STEP_CHANGE * self.scale)
+                self.largest_change = float(np.max(moved, initial=0.0))
+                self.step_change = self.largest_change / (STEP_CHANGE * self.scale)
                 return True
             if change > last_change:  # an iteration changing more than the one before: under-relax
                 relaxation = max(0.1, 0.5 * relaxation)
@@ -229,7 +246,8 @@ class GroundwaterFlow:
         others (saturated soil of incompressible water) follow the rest at once, whatever the step."""
         m = self.model
         inv_biot = m.pore.material_inv_biot.numpy()[m.particle_material.numpy()[: m.particle_count]]
-        return self.capacity.numpy() + self.saturation.numpy() * inv_biot > 0.0
+        storage = self.capacity.numpy() + self.saturation.numpy() * inv_biot + self.coupling_storage.numpy()
+        return storage > 0.0
 
     def saturation_field(self) -> np.ndarray:
         """(N,) degree of saturation [-] of the current state (host)."""

@@ -109,15 +109,17 @@ def groundwater_kernels(spec: Spec):
         face_factor: wp.array(dtype=f64), material: wp.array(dtype=wp.int32), inv_biot: wp.array(dtype=f64),
         saturation: wp.array(dtype=f64), capacity: wp.array(dtype=f64), saturation_start: wp.array(dtype=f64),
         porosity: wp.array(dtype=f64),
-        p_iter: wp.array(dtype=f64), p_start: wp.array(dtype=f64),
+        p_iter: wp.array(dtype=f64), p_start: wp.array(dtype=f64), coupling_storage: wp.array(dtype=f64),
+        coupling_source: wp.array(dtype=f64),
     ):  # fmt: skip
-        """(diagonal, rhs) of row a's storage: V_a [C pᵐ⁺¹ + (S/Q) pᵐ⁺¹]/Δt against
-        V_a [C pᵐ − n(S(pᵐ) − Sⁿ) + (S/Q) pⁿ]/Δt."""
+        """(diagonal, rhs) of row a's storage: V_a [C pᵐ⁺¹ + (S/Q) pᵐ⁺¹ + β pᵐ⁺¹]/Δt against
+        V_a [C pᵐ − n(S(pᵐ) − Sⁿ) + (S/Q) pⁿ + s]/Δt, with the skeleton's coupling β and s of a
+        consolidation step (:mod:`warpsph.stages.consolidation`; zero in a flow phase)."""
         mat = material[a]
         vol_a = f64(mass[a] / density[a]) * face_factor[a]
-        d = vol_a * inv_dt * (capacity[a] + saturation[a] * inv_biot[mat])
+        d = vol_a * inv_dt * (capacity[a] + saturation[a] * inv_biot[mat] + coupling_storage[a])
         b = vol_a * inv_dt * (capacity[a] * p_iter[a] - porosity[mat] * (saturation[a] - saturation_start[a])
-                              + saturation[a] * inv_biot[mat] * p_start[a])  # fmt: skip
+                              + saturation[a] * inv_biot[mat] * p_start[a] + coupling_source[a])  # fmt: skip
         return d, b
 
     @wp.kernel(enable_backward=False, module="unique")
@@ -128,6 +130,7 @@ def groundwater_kernels(spec: Spec):
         permeability: wp.array(dtype=f64), inv_biot: wp.array(dtype=f64), relative: wp.array(dtype=f64),
         saturation: wp.array(dtype=f64), capacity: wp.array(dtype=f64), saturation_start: wp.array(dtype=f64),
         porosity: wp.array(dtype=f64), p_iter: wp.array(dtype=f64), p_start: wp.array(dtype=f64),
+        coupling_storage: wp.array(dtype=f64), coupling_source: wp.array(dtype=f64),
         ghost_source: wp.array(dtype=wp.int32), ghost_chain: wp.array(dtype=wp.vec3i),
         plane_axis: wp.array(dtype=wp.int32), plane_position: wp.array(dtype=real), plane_sign: wp.array(dtype=real),
         plane_kind: wp.array(dtype=wp.int32), drainage: wp.array(dtype=wp.int32), drained_lo: wp.array(dtype=vec3),
@@ -141,7 +144,7 @@ def groundwater_kernels(spec: Spec):
         (θ = n S, C = n dS/dp; ``inv_dt`` = 0: the steady state); Dirichlet rows as in the projection."""
         a = first + wp.tid()
         d, b = storage(a, inv_dt, mass, density, face_factor, material, inv_biot, saturation, capacity,
-                       saturation_start, porosity, p_iter, p_start)  # fmt: skip
+                       saturation_start, porosity, p_iter, p_start, coupling_storage, coupling_source)  # fmt: skip
         for k in range(offsets[a], offsets[a + 1]):
             col, w, s, c, _plane = flow_pair(a, nbr[k], n, h, scale, q, origin, mass, density, material,
                                              permeability, relative, ghost_source, ghost_chain, plane_axis,
@@ -167,6 +170,7 @@ def groundwater_kernels(spec: Spec):
         permeability: wp.array(dtype=f64), inv_biot: wp.array(dtype=f64), relative: wp.array(dtype=f64),
         saturation: wp.array(dtype=f64), capacity: wp.array(dtype=f64), saturation_start: wp.array(dtype=f64),
         porosity: wp.array(dtype=f64), p_iter: wp.array(dtype=f64), p_start: wp.array(dtype=f64),
+        coupling_storage: wp.array(dtype=f64), coupling_source: wp.array(dtype=f64),
         ghost_source: wp.array(dtype=wp.int32), ghost_chain: wp.array(dtype=wp.vec3i),
         plane_axis: wp.array(dtype=wp.int32), plane_position: wp.array(dtype=real), plane_sign: wp.array(dtype=real),
         plane_kind: wp.array(dtype=wp.int32), drainage: wp.array(dtype=wp.int32), drained_lo: wp.array(dtype=vec3),
@@ -183,7 +187,7 @@ def groundwater_kernels(spec: Spec):
         tag, and ``stored`` the rate at which its water content grows."""
         a = first + wp.tid()
         d, b = storage(a, inv_dt, mass, density, face_factor, material, inv_biot, saturation, capacity,
-                       saturation_start, porosity, p_iter, p_start)  # fmt: skip
+                       saturation_start, porosity, p_iter, p_start, coupling_storage, coupling_source)  # fmt: skip
         stored[a] = d * p[a] - b
         for t in range(n_tags):
             discharge[a * n_tags + t] = zero

@@ -1,0 +1,113 @@
+"""Consolidation phases (docs/scenes.md, *Consolidation*): the coupled quasi-static transient in
+implicit steps by the fixed-stress split, against Terzaghi's closed form (shared/docs/verification.md,
+parameter set A: H = 10 m, σ₀ = 5 kPa, c_v = 3.089 m²/s), from the undrained state at t = 0.
+
+The time error is backward Euler's, set by the step's largest pressure change (2 % of p₀); the
+settlement's error is first order in Δx: the column's displacement lags the strain its stresses
+carry by about Δx/(2H) (5.3, 2.6 and 1.3 % at Δx = 1, 0.5 and 0.25 m).
+"""
+
+import numpy as np
+import pytest
+
+from warpsph.errors import SceneError
+from warpsph.io import load_results
+from warpsph.runner import Run
+from warpsph.scene import Drainage, Effects, Material, Phase
+from warpsph.verification import consolidation_constants, degree_of_consolidation, pressure_l2
+
+from test_terzaghi import SIGMA0, consolidating_column
+
+HEIGHT = 10.0
+SOIL = Material("soil", density=1700.0, youngs_modulus=30e6, poisson_ratio=0.2, porosity=0.3, grain_density=2000.0,
+                water_bulk_modulus=100e6, hydraulic_conductivity=1e-3)  # fmt: skip
+P0, CV, S0, S_INF = consolidation_constants(SOIL, HEIGHT, SIGMA0)
+
+
+def consolidation_scene(dx: float, tv_end: float = 0.5, frames: int = 5, **phase):
+    scene = consolidating_column(SOIL, HEIGHT, dx, SIGMA0)
+    scene.phases = [Phase(name="consolidation", kind="consolidation", duration=tv_end * HEIGHT**2 / CV,
+                          frames=frames, **phase)]  # fmt: skip
+    scene.output.usd = False
+    scene.output.fields = ["displacement", "pore_pressure", "stress"]
+    return scene.validate()
+
+
+def errors(out, dx: float) -> list[tuple[float, float, float, float]]:
+    """(T_v, L2 of p over p₀, U from the pressure − U, settlement over the closed form's − 1) of
+    each frame after the first."""
+    results = load_results(out / "results.h5")
+    x0 = results.frame(0)["position"]
+    top = np.argmax(x0[:, 1])
+    rows = []
+    for i in range(1, len(results)):
+        frame, tv = results.frame(i), results.times[i] * CV / HEIGHT**2
+        p = frame["pore_pressure"]
+        u = degree_of_consolidation(tv)
+        settlement = S0 - frame["displacement"][top, 1]
+        rows.append((tv, pressure_l2(p, HEIGHT - x0[:, 1], HEIGHT, P0, tv), 1.0 - np.mean(p) / P0 - u,
+                     settlement / (S0 + (S_INF - S0) * u) - 1.0))  # fmt: skip
+    print("\n  T_v   L2/p0    U_p − U   settlement error")
+    for tv, l2, du, ds in rows:
+        print(f"  {tv:.3f}  {l2:.2e}  {du:+.4f}   {ds:+.4f}")
+    return rows
+
+
+@pytest.fixture(scope="module")
+def coarse(tmp_path_factory):
+    out = tmp_path_factory.mktemp("consolidation")
+    summary = Run(consolidation_scene(1.0), out).run()
+    return out, summary
+
+
+def test_terzaghi_by_consolidation_phase(coarse):
+    """Δx = 1 m to T_v = 0.5: p within 1 % of p₀ (L2) and U within 0.02 at T_v = 0.1 ... 0.5; the
+    settlement within Δx/H; one phase, finished, in implicit steps of two or three fixed-stress
+    iterations (exact in 1D: the second confirms the first, up to the equilibrium's tolerance)."""
+    out, summary = coarse
+    for tv, l2, du, ds in errors(out, 1.0):
+        assert l2 < 0.01 and abs(du) < 0.02
+        assert -1.0 / HEIGHT < ds < 0.0
+    assert summary.phases[0]["outcome"] == "finished"
+    _, iterations = load_results(out / "results.h5").series("consolidation_iterations")
+    print(f"{len(iterations)} steps, fixed-stress iterations: mean {np.mean(iterations):.2f}, max {max(iterations)}")
+    assert 10 < len(iterations) < 150 and np.mean(iterations) < 3.0 and max(iterations) <= 8
+
+
+@pytest.mark.slow
+def test_terzaghi_settlement_converges_at_first_order(coarse, tmp_path):
+    """Δx = 0.5 m against 1 m: the pressure within 0.5 % of p₀, the settlement's lag halved."""
+    Run(consolidation_scene(0.5), tmp_path).run()
+    fine = errors(tmp_path, 0.5)
+    for (_, _, _, ds_coarse), (_, l2, _, ds_fine) in zip(errors(coarse[0], 1.0), fine):
+        assert l2 < 0.005
+        assert ds_fine / ds_coarse == pytest.approx(0.5, abs=0.1)
+
+
+def test_consolidation_resumes_bit_identical(tmp_path):
+    scene = consolidation_scene(1.0, tv_end=0.01, frames=2)
+    duration = scene.phases[0].duration
+    Run(scene, tmp_path / "whole").run()
+    Run(scene, tmp_path / "split", end_time=0.5 * duration).run()
+    Run(scene, tmp_path / "split", end_time=None, resume=True).run()
+    whole, split = load_results(tmp_path / "whole" / "results.h5"), load_results(tmp_path / "split" / "results.h5")
+    assert whole.times[-1] == split.times[-1] == pytest.approx(duration)
+    for key in ("pore_pressure", "position", "stress"):
+        np.testing.assert_array_equal(whole.frame(len(whole) - 1)[key], split.frame(len(split) - 1)[key])
+
+
+def test_consolidation_phase_input_errors():
+    scene = consolidation_scene(1.0)
+    scene.effects = Effects(pore_water=False)
+    scene.bodies[0].pore_pressure = 0.0
+    scene.loads[0].drainage = Drainage()
+    with pytest.raises(SceneError, match=r"phases.consolidation.kind.*pore_water"):
+        scene.validate()
+    scene = consolidation_scene(1.0)
+    scene.phases[0].steady = True
+    with pytest.raises(SceneError, match=r"phases.consolidation.steady.*transient"):
+        scene.validate()
+    scene = consolidation_scene(1.0)
+    scene.phases[0].duration = 0.0
+    with pytest.raises(SceneError, match=r"phases.consolidation.duration"):
+        scene.validate()
