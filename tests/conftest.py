@@ -54,3 +54,62 @@ def factor_of_safety_falls(scene_path: Path, out: Path, before: str, after: str)
     fails = {factor for factor, converged, *_ in second["trials"] if not converged}
     assert stands & fails
     return warpsph.load_results(out / "results.h5"), first["criterion"], second["criterion"]
+
+
+def undrained_clay(name: str, vertices, dx: float, phases, cohesion: float, density: float = 2000.0):
+    """A scene of undrained clay in total stress (dry, von Mises with c_u = ``cohesion`` [Pa], ρ = ``density``
+    [kg/m³], E = 20 MPa, ν = 0.3, plasticity on) filling the polygon ``vertices`` [m] under gravity: a fixed
+    base at y = 0, slip sides at the polygon's smallest and largest x, the given ``phases``; frames hold
+    velocity, stress and displacement (no USD or XDMF)."""
+    import dataclasses
+
+    from warpsph import Body, Boundary, Material, Scene, Simulation
+
+    xs = [x for x, _ in vertices]
+    clay = Material("clay", model="viscoplastic", density=density, youngs_modulus=2e7, poisson_ratio=0.3,
+                    yield_function="von_mises", cohesion=cohesion)  # fmt: skip
+    scene = Scene(name=name, simulation=Simulation(dim=2, dx=dx, end_time=1.0, gravity=(0.0, -9.81, 0.0)),
+                  materials={"clay": clay}, bodies=[Body("ground", "clay", shape="polygon", vertices=vertices)],
+                  boundaries=[Boundary("base", "fixed", "y", 0.0, "min"), Boundary("left", "slip", "x", min(xs), "min"),
+                              Boundary("right", "slip", "x", max(xs), "max")],
+                  phases=phases)  # fmt: skip
+    scene.effects = dataclasses.replace(scene.effects, plasticity=True)
+    scene.output.usd = scene.output.xdmf = False
+    scene.output.frame_interval = 1e3
+    scene.output.fields = ["velocity", "stress", "displacement"]
+    return scene.validate()
+
+
+def strength_reduction_phases(max_steps: int, factor_tolerance: float):
+    """The K0 procedure, gravity loading to equilibrium, then a safety phase whose trials are capped at
+    ``max_steps`` and searched to ± ``factor_tolerance``."""
+    from warpsph.scene import Phase
+
+    return [Phase("initial", kind="k0"), Phase("gravity", kind="equilibrium"),
+            Phase("safety", kind="safety", max_steps=max_steps, factor_tolerance=factor_tolerance)]  # fmt: skip
+
+
+def factor_search(out: Path, tolerance: float):
+    """Check the safety phase that ends the run in ``out``: it converged, its factor of safety lies between
+    the strongest trial that stood and the weakest that failed, that bracket is at most 2 ``tolerance``
+    wide, and every trial's last state is a frame. Returns the factor of safety, the trials and each
+    trial's ``{factor: (start positions (N,3) [m], |displacement| (N,) [m])}`` in its last frame."""
+    import numpy as np
+
+    import warpsph
+
+    results = warpsph.load_results(out / "results.h5")
+    phase = results.phases[-1]
+    trials, fos = phase["trials"], phase["criterion"]
+    stood, failed = trials[trials[:, 1] == 1, 0], trials[trials[:, 1] == 0, 0]
+    print(f"\nfactor of safety {fos:.4f} ± {tolerance}; trials (factor, converged, ratio, steps, moved):\n{trials}")
+    assert phase["outcome"] == "converged"
+    assert stood.max() < fos < failed.min() and failed.min() - stood.max() <= 2 * tolerance + 1e-12
+    factors = [results.frame_attrs(k).get("factor") for k in range(len(results.times))]
+    frames = {f: k for k, f in enumerate(factors) if f is not None}
+    assert set(frames) == set(trials[:, 0])
+    mechanism = {}
+    for factor, k in frames.items():
+        frame = results.frame(k)
+        mechanism[factor] = (frame["position"] - frame["displacement"], np.linalg.norm(frame["displacement"], axis=1))
+    return fos, trials, mechanism

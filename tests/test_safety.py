@@ -18,7 +18,8 @@ import numpy as np
 import pytest
 
 import warpsph
-from warpsph import Body, Boundary, Material, Probe, Region, Scene, SceneError, Simulation
+from conftest import factor_search, strength_reduction_phases, undrained_clay
+from warpsph import Material, Probe, Region, Scene, SceneError
 from warpsph.phases import FactorSearch, reduced_strength
 from warpsph.scene import Phase
 
@@ -29,54 +30,29 @@ BOUNDS = (2.83 * CU / (RHO * G * H), 3.83 * CU / (RHO * G * H))
 
 
 def vertical_cut(dx: float, phases: list[Phase]) -> Scene:
-    clay = Material("clay", model="viscoplastic", density=RHO, youngs_modulus=2e7, poisson_ratio=0.3,
-                    yield_function="von_mises", cohesion=CU)  # fmt: skip
-    scene = Scene(name="cut", simulation=Simulation(dim=2, dx=dx, end_time=1.0, gravity=(0.0, -G, 0.0)),
-                  materials={"clay": clay}, bodies=[Body("ground", "clay", shape="polygon", vertices=CUT)],
-                  boundaries=[Boundary("base", "fixed", "y", 0.0, "min"), Boundary("left", "slip", "x", 0.0, "min"),
-                              Boundary("right", "slip", "x", 8.0, "max")],
-                  phases=phases)  # fmt: skip
-    scene.effects = dataclasses.replace(scene.effects, plasticity=True)
-    scene.output.usd = scene.output.xdmf = False
-    scene.output.frame_interval = 1e3
-    scene.output.fields = ["velocity", "stress", "displacement"]
-    return scene.validate()
+    return undrained_clay("cut", CUT, dx, phases, CU, RHO)
 
-
-def cut_phases(dx_steps: int, factor_tolerance: float) -> list[Phase]:
-    return [Phase("initial", kind="k0"), Phase("gravity", kind="equilibrium"),
-            Phase("safety", kind="safety", max_steps=dx_steps, factor_tolerance=factor_tolerance)]  # fmt: skip
 
 
 def check_cut(out, tolerance: float) -> float:
-    results = warpsph.load_results(out / "results.h5")
-    phase = results.phases[-1]
-    trials = phase["trials"]
-    fos = phase["criterion"]
+    fos, trials, mechanism = factor_search(out, tolerance)
     stood, failed = trials[trials[:, 1] == 1, 0], trials[trials[:, 1] == 0, 0]
-    print(f"\nfactor of safety {fos:.4f} ± {tolerance}, bounds [{BOUNDS[0]:.3f}, {BOUNDS[1]:.3f}]; trials:\n{trials}")
-    assert phase["outcome"] == "converged"
-    assert stood.max() < fos < failed.min() and failed.min() - stood.max() <= 2 * tolerance + 1e-12
+    print(f"bounds [{BOUNDS[0]:.3f}, {BOUNDS[1]:.3f}]")
     assert BOUNDS[0] <= stood.max() and failed.min() - BOUNDS[1] <= 2 * tolerance  # the bracket meets the bounds
-    # each trial's last state is a frame; the first trial that failed shows the mechanism: the soil
-    # behind the face moves much more than in the strongest trial that stood, and on the face's side
-    factors = [results.frame_attrs(k).get("factor") for k in range(len(results.times))]
-    frames = {f: k for k, f in enumerate(factors) if f is not None}
-    assert set(frames) == set(trials[:, 0])
-    first_failed = trials[trials[:, 1] == 0, 0][0]
-    moved = {f: np.linalg.norm(results.frame(frames[f])["displacement"], axis=1) for f in (first_failed, stood.max())}
-    print(f"largest displacement: {moved[first_failed].max():.4f} m at F = {first_failed}, "
-          f"{moved[stood.max()].max():.4f} m at F = {stood.max()}")
-    assert moved[first_failed].max() > 5.0 * moved[stood.max()].max()
-    position = results.frame(frames[first_failed])["position"]
-    assert 3.0 < position[np.argmax(moved[first_failed]), 0] < 4.5  # at the face
+    # the first trial that failed shows the mechanism: the soil behind the face moves much more than in
+    # the strongest trial that stood, and on the face's side
+    (start, moved), (_, stood_moved) = mechanism[failed[0]], mechanism[stood.max()]
+    print(f"largest displacement: {moved.max():.4f} m at F = {failed[0]}, "
+          f"{stood_moved.max():.4f} m at F = {stood.max()}")
+    assert moved.max() > 5.0 * stood_moved.max()
+    assert 3.0 < start[np.argmax(moved), 0] < 4.5  # at the face
     return fos
 
 
 @pytest.fixture(scope="module")
 def cut(tmp_path_factory):
     out = tmp_path_factory.mktemp("cut")
-    summary = warpsph.run_scene(vertical_cut(0.25, cut_phases(4000, 0.02)), out, device="cpu")
+    summary = warpsph.run_scene(vertical_cut(0.25, strength_reduction_phases(4000, 0.02)), out, device="cpu")
     return summary, out
 
 
@@ -89,7 +65,7 @@ def test_vertical_cut_factor_of_safety_lies_within_the_limit_analysis_bounds(cut
 @pytest.mark.slow
 def test_vertical_cut_factor_of_safety_refined(tmp_path):
     """Δx = 0.2 m, trials of 5000 steps, to ± 0.01 (measured 1.951 ± 0.006, about 2 min)."""
-    warpsph.run_scene(vertical_cut(0.2, cut_phases(5000, 0.01)), tmp_path, device="cpu")
+    warpsph.run_scene(vertical_cut(0.2, strength_reduction_phases(5000, 0.01)), tmp_path, device="cpu")
     check_cut(tmp_path, 0.01)
 
 
@@ -120,7 +96,7 @@ def test_factor_search_brackets_to_its_tolerance(fos):
     ({"factor_max": 0.5}, "phases.safety.factor_max", "must be"),
 ])  # fmt: skip
 def test_bad_safety_phases_name_their_key(change, key, words):
-    phases = cut_phases(100, 0.01)
+    phases = strength_reduction_phases(100, 0.01)
     phases[-1] = dataclasses.replace(phases[-1], **change)
     with pytest.raises(SceneError) as err:
         vertical_cut(0.5, phases)
@@ -128,14 +104,14 @@ def test_bad_safety_phases_name_their_key(change, key, words):
 
 
 def test_safety_phase_needs_plasticity():
-    scene = vertical_cut(0.5, cut_phases(100, 0.01))
+    scene = vertical_cut(0.5, strength_reduction_phases(100, 0.01))
     scene.effects = dataclasses.replace(scene.effects, plasticity=False)
     with pytest.raises(SceneError, match=r"^phases\.safety\.kind: .*needs effects\.plasticity"):
         scene.validate()
 
 
 def test_safety_phase_on_elastic_bodies_would_do_nothing():
-    scene = vertical_cut(0.5, cut_phases(100, 0.01))
+    scene = vertical_cut(0.5, strength_reduction_phases(100, 0.01))
     scene.materials["clay"] = dataclasses.replace(scene.materials["clay"], model="elastic")
     with pytest.raises(SceneError, match=r"^phases\.safety\.kind: .*would do nothing"):
         scene.validate()
@@ -171,7 +147,7 @@ def test_cut_weakened_below_its_factor_of_safety_fails_and_comes_to_rest(tmp_pat
 def test_stop_and_resume_inside_a_safety_phase_is_bit_identical(tmp_path):
     """``--end-time`` inside a trial, then ``--resume``: the checkpoint of the last finished trial
     restarts the search, which ends with the same trials and the same final state."""
-    scene = vertical_cut(0.5, cut_phases(600, 0.1) + [Phase("after", kind="dynamic", duration=0.05)])
+    scene = vertical_cut(0.5, strength_reduction_phases(600, 0.1) + [Phase("after", kind="dynamic", duration=0.05)])
     reference = tmp_path / "reference"
     warpsph.run_scene(scene, reference, device="cpu")
     ref = warpsph.load_results(reference / "results.h5")

@@ -3,9 +3,11 @@
 Probes are Lagrangian: a "point" probe follows the material particle nearest its point at the
 start, a "region_mean" probe the particles that start inside its region, a "maximum" or
 "minimum" probe those (or all particles, without a region) to their extreme value. A "reaction"
-probe sums the total traction σ·n (σ = σ′ − p I with pore water) over the particles lying on a
-boundary plane, each standing for an area V/Δx, halved for every other plane it also lies on (an
-edge particle's area is half outside the body); naming a "velocity" or "force" load, it writes the
+probe integrates the total traction σ·n (σ = σ′ − p I with pore water) over a boundary plane by the
+trapezoidal rule on the particles that start on it: each stands for its tributary area on the plane
+in the current configuration, spanned by half the vectors to its lattice neighbours on the plane
+(:func:`tributary_areas`; Δx^(dim−1) inside, half of it at an edge, where the body or the plane's
+particles end, a quarter at a corner; 1 in 1D); naming a "velocity" or "force" load, it writes the
 contact force of that rigid region (``stages/rigid.py``).
 Every value is multiplied by the probe's ``scale`` before it is written.
 """
@@ -52,6 +54,46 @@ def total_stress(fields: dict[str, np.ndarray]) -> np.ndarray:
     return fields["stress"] - fields["pore_pressure"][:, None, None] * np.eye(3)
 
 
+def lattice_neighbours(x0: np.ndarray, dx: float, axes: list[int]) -> np.ndarray:
+    """(len(axes), 2, M) indices into ``x0`` (M,3) [m] of each point's lattice neighbours at −Δx and +Δx
+    along each of ``axes`` among the same points, −1 where there is none."""
+    out = np.full((len(axes), 2, len(x0)), -1, dtype=np.int64)
+    if not len(x0):
+        return out
+    codes = np.rint(x0 / dx).astype(np.int64)
+    codes -= codes.min(axis=0) - 1  # every neighbour's code ≥ 0
+    extent = codes.max(axis=0) + 2
+    weights = np.array([extent[1] * extent[2], extent[2], 1], dtype=np.int64)
+    keys = codes @ weights
+    order = np.argsort(keys)
+    for k, axis in enumerate(axes):
+        for side, step in enumerate((-1, 1)):
+            wanted = keys + step * weights[axis]
+            at = np.minimum(np.searchsorted(keys, wanted, sorter=order), len(keys) - 1)
+            found = keys[order[at]] == wanted
+            out[k, side] = np.where(found, order[at], -1)
+    return out
+
+
+def tributary_areas(x: np.ndarray, neighbours: np.ndarray, axes: list[int]) -> np.ndarray:
+    """The area (M,) [m^(dim−1)] each of the points at ``x`` (M,3) [m] stands for on a plane whose
+    in-plane ``axes`` (none in 1D, one in 2D, two in 3D) and lattice ``neighbours``
+    (:func:`lattice_neighbours`) are given: the area spanned along the plane by d_a = (x_{+a} − x_{−a})/2,
+    a missing neighbour replaced by the point itself (the trapezoidal rule's weights on the current
+    positions, projected onto the plane)."""
+    spans = []
+    for k in range(len(axes)):
+        lower, upper = neighbours[k]
+        below = np.where(lower[:, None] >= 0, x[np.maximum(lower, 0)], x)
+        above = np.where(upper[:, None] >= 0, x[np.maximum(upper, 0)], x)
+        spans.append(0.5 * (above - below)[:, axes])
+    if not spans:
+        return np.ones(len(x))
+    if len(spans) == 1:
+        return np.abs(spans[0][:, 0])
+    return np.abs(spans[0][:, 0] * spans[1][:, 1] - spans[0][:, 1] * spans[1][:, 0])
+
+
 class Probes:
     """The scene's probes, resolved against a model's particles."""
 
@@ -64,15 +106,16 @@ class Probes:
         tol = 1.0e-6 * model.dx
         self.selection: list[np.ndarray] = []
         self.normal: list[np.ndarray | None] = []
-        self._mass = model.particle_mass.numpy()[: model.particle_count]
-        self.area_factor: list[np.ndarray | None] = []
-        on_planes = {}
-        for a, planes in zip(model.constraint_particle.numpy(), model.constraint_planes.numpy().reshape(-1, 3)):
-            on_planes[int(a)] = int(np.count_nonzero(planes >= 0))
+        self.plane_axes: list[list[int]] = []
+        """Each reaction probe's in-plane axes among the scene's (none for the other probes)."""
+        self.neighbours: list[np.ndarray | None] = []
+        """Each reaction probe's lattice neighbours on its plane (:func:`lattice_neighbours`)."""
+        used = [1] if model.spec.dim == 1 else list(range(model.spec.dim))
         rigid = [ld.name for ld in model.scene.loads if ld.kind in RIGID_LOAD_KINDS]
         self.rigid_index: list[int | None] = []
         for p in self.probes:
-            normal = factor = None
+            normal = neighbours = None
+            axes = []
             self.rigid_index.append(rigid.index(p.boundary) if p.kind == "reaction" and p.boundary in rigid else None)
             if self.rigid_index[-1] is not None:
                 sel = np.zeros(0, dtype=np.int64)
@@ -89,10 +132,12 @@ class Probes:
                 sel = np.nonzero(np.abs(x0[:, axis] - position) <= tol)[0]
                 normal = np.zeros(3)
                 normal[axis] = float(model.plane_sign.numpy()[plane])
-                factor = 0.5 ** np.array([on_planes.get(int(a), 1) - 1 for a in sel])
+                axes = [k for k in used if k != axis]
+                neighbours = lattice_neighbours(x0[sel], model.dx, axes)
             self.selection.append(sel)
             self.normal.append(normal)
-            self.area_factor.append(factor)
+            self.plane_axes.append(axes)
+            self.neighbours.append(neighbours)
         everything = any(p.kind in EXTREMA and p.region is None for p in self.probes)
         self.rows = None if everything else np.unique(np.concatenate([np.zeros(0, np.int64), *self.selection]))
         """The particles the probes read, sorted (None: all of them), so that a sample between frames
@@ -109,19 +154,18 @@ class Probes:
         (NaN without them). ``rows``: the fields hold only these particles (:attr:`rows`)."""
         out = {}
         x0 = self.displacement_origin
-        mass = self._mass
         selections = self.selection
         if rows is not None:
-            x0, mass = x0[rows], mass[rows]
+            x0 = x0[rows]
             selections = [np.searchsorted(rows, sel) for sel in self.selection]
-        for p, sel, normal, factor, k in zip(self.probes, selections, self.normal, self.area_factor,
-                                             self.rigid_index):  # fmt: skip
+        for p, sel, normal, axes, neighbours, k in zip(self.probes, selections, self.normal, self.plane_axes,
+                                                      self.neighbours, self.rigid_index):  # fmt: skip
             if k is not None:
                 known = rigid_contact is not None
                 out[p.name] = p.scale * float(rigid_contact[k, _COMPONENT[p.field]]) if known else float("nan")
             elif p.kind == "reaction":
                 traction = total_stress(fields)[sel] @ normal
-                area = factor * mass[sel] / fields["density"][sel] / self.model.dx
+                area = tributary_areas(fields["position"][sel], neighbours, axes)
                 out[p.name] = p.scale * float(np.sum(traction[:, _COMPONENT[p.field]] * area))
             else:
                 values = field_values(p.field, {k: v[sel] for k, v in fields.items()}, x0[sel])
