@@ -249,7 +249,7 @@ class Material:
 class Body:
     """A region filled with particles on a lattice of spacing Δx.
 
-    shape: "box" (``min``/``max`` corners [m]), "polygon" (2D only, ``vertices`` [[x, y], ...] [m])
+    shape: "box" (``min``/``max`` corners [m]), "polygon" (2D only, ``vertices`` as [[x, y], ...] in m)
     or "circle" (``center`` [m], ``radius`` [m]; a disc in 2D, a sphere in 3D, a segment in 1D).
     """
 
