@@ -9,7 +9,9 @@ pressure of two iterates agrees:
 
 ε = −ln ρ (up to a constant) from the skeleton's own continuity, and β = S²/K_d with the drained
 modulus K_d = λ + 2G/d of the dimension d (E_oed in 1D, λ + G in plane strain, K in 3D): the split's
-storage, with which the iteration contracts for any time step and is exact in 1D.
+storage, with which the iteration contracts for any time step when each equilibrium is exact (exact
+in one iteration in 1D), accelerated by Aitken's relaxation. In 2D the damped equilibrium's own
+floor stalls it (docs/method.md, *Known limits*).
 """
 
 from __future__ import annotations
