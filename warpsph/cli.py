@@ -112,7 +112,9 @@ def _run(args) -> int:
         if projection is not None and projection.iterations:
             solve = f", {projection.settings.solver} {projection.iterations[-1]} it"
         if run.flow is not None:
-            solve = f", Δt = {run.loop.get('dt', 0.0):.3g} s, {run.flow.iterations} iterations"
+            stepper = run.split or run.flow
+            what = "fixed-stress iterations" if run.split else "iterations"
+            solve = f", Δt = {run.loop.get('dt', 0.0):.3g} s, {stepper.iterations} {what}"
         phase = f"phase {run.phase.name} ({run.phase.kind}), " if run.staged else ""
         if run.phase.kind == "safety" and "search" in run.loop:
             phase += f"trial F = {run.loop['search']['factor']:.4g}, "

@@ -188,7 +188,7 @@ class Run:
                 raise InputError(f"--resume: {changed} differs from the scene the checkpoint was written with (a "
                                  "resumed run may change only its output and simulation.end_time)")  # fmt: skip
         phase_index = int(ck.meta.get("phase", 0)) if ck is not None else 0
-        self.phase_index, self.flow = 0, None
+        self.phase_index, self.flow, self.split = 0, None, None
         if not 0 <= phase_index < len(self.phases):
             raise InputError("--resume: the checkpoint's phase is not one of this scene's")
         self._enter_phase(phase_index)
