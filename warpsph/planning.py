@@ -9,7 +9,7 @@ import time
 from dataclasses import dataclass, field
 
 from warpsph.phases import default_phases, phase_scene
-from warpsph.scene import Scene
+from warpsph.scene import IMPLICIT_PHASE_KINDS, Scene
 
 TIMED_STEPS, TIMED_SECONDS = 20, 2.0
 """The estimate times steps until either is reached, after one compiling step."""
@@ -59,7 +59,7 @@ def plan(scene: Scene, device: str | None = None, timed: bool = True) -> RunPlan
     from warpsph.stages.guard import Guard
 
     phases = default_phases(scene)
-    mechanical = [i for i, p in enumerate(phases) if p.kind not in ("k0", "flow", "consolidation")]
+    mechanical = [i for i, p in enumerate(phases) if p.kind != "k0" and p.kind not in IMPLICIT_PHASE_KINDS]
     first = phase_scene(scene, mechanical[0] if mechanical else 0) if scene.phases else scene
     model, state = build(first, device=device)
     dt = first.time_step
@@ -105,7 +105,7 @@ def count_steps(scene: Scene) -> tuple[int, bool, int, list[str]]:
             steps, capped, frames = steps + phase.max_steps, True, frames + phase.max_steps // frame_every + 1
         elif phase.kind == "safety":
             steps, capped, frames = steps + 7 * phase.max_steps, True, frames + 8
-        elif phase.kind in ("flow", "consolidation"):
+        elif phase.kind in IMPLICIT_PHASE_KINDS:
             frames += 1 if phase.steady else phase.frames
             notes.append(f"phase {phase.name} ({phase.kind}): implicit steps sized by accuracy, not counted")
     if steps > MANY_STEPS and not capped:

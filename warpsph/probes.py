@@ -17,6 +17,7 @@ from __future__ import annotations
 import numpy as np
 
 from warpsph.fields import mean_stress, von_mises
+from warpsph.lattice import code_step, lattice_codes, used_axes
 from warpsph.model import Model
 from warpsph.stages.rigid import RIGID_LOAD_KINDS
 
@@ -60,17 +61,13 @@ def lattice_neighbours(x0: np.ndarray, dx: float, axes: list[int]) -> np.ndarray
     out = np.full((len(axes), 2, len(x0)), -1, dtype=np.int64)
     if not len(x0):
         return out
-    codes = np.rint(x0 / dx).astype(np.int64)
-    codes -= codes.min(axis=0) - 1  # every neighbour's code ≥ 0
-    extent = codes.max(axis=0) + 2
-    weights = np.array([extent[1] * extent[2], extent[2], 1], dtype=np.int64)
-    keys = codes @ weights
-    order = np.argsort(keys)
+    codes = lattice_codes(x0, dx)
+    order = np.argsort(codes)
     for k, axis in enumerate(axes):
         for side, step in enumerate((-1, 1)):
-            wanted = keys + step * weights[axis]
-            at = np.minimum(np.searchsorted(keys, wanted, sorter=order), len(keys) - 1)
-            found = keys[order[at]] == wanted
+            wanted = codes + step * code_step(axis)
+            at = np.minimum(np.searchsorted(codes, wanted, sorter=order), len(codes) - 1)
+            found = codes[order[at]] == wanted
             out[k, side] = np.where(found, order[at], -1)
     return out
 
@@ -110,7 +107,7 @@ class Probes:
         """Each reaction probe's in-plane axes among the scene's (none for the other probes)."""
         self.neighbours: list[np.ndarray | None] = []
         """Each reaction probe's lattice neighbours on its plane (:func:`lattice_neighbours`)."""
-        used = [1] if model.spec.dim == 1 else list(range(model.spec.dim))
+        used = used_axes(model.spec.dim)
         rigid = [ld.name for ld in model.scene.loads if ld.kind in RIGID_LOAD_KINDS]
         self.rigid_index: list[int | None] = []
         for p in self.probes:

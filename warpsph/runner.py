@@ -39,15 +39,13 @@ from warpsph.phase_state import ParticleIds, carry_state
 from warpsph.phases import AT_REST, CONVERGED, FINISHED, NOT_CONVERGED, STOPPED, PhaseRecord, default_phases
 from warpsph.phases import FactorSearch, phase_scene, reduced_strength
 from warpsph.probes import Probes
-from warpsph.scene import FAILURE_DISPLACEMENT, Phase, Scene
+from warpsph.scene import FAILURE_DISPLACEMENT, IMPLICIT_PHASE_KINDS, Phase, Scene
 from warpsph.solver import Solver
 from warpsph.stages.consolidation import FixedStressSplit
 from warpsph.stages.groundwater import GroundwaterFlow
 from warpsph.stages.guard import Guard
 
 RESULTS, CHECKPOINT, RECORD = "results.h5", "checkpoint.h5", "run.json"
-IMPLICIT = ("flow", "consolidation")
-"""Phase kinds that advance in implicit time steps sized by accuracy."""
 
 
 @dataclass
@@ -243,7 +241,7 @@ class Run:
         self.loop = {}
         self._load_scale = None  # the phase's constant parts of the applied force (_applied_force)
         self.flow = self.split = None
-        if phase.kind in IMPLICIT:
+        if phase.kind in IMPLICIT_PHASE_KINDS:
             height = self._height(self.model.particle_x0)
             self.flow = GroundwaterFlow(self.model, self.solver, self.state, phase_scene_.reservoirs, phase.tolerance,
                                         height)  # fmt: skip
@@ -270,7 +268,7 @@ class Run:
     def phase_time(self) -> float:
         """Time since the start of the current phase [s]: the loads' time functions run on it (a flow
         and consolidation phase's implicit steps keep their own sum)."""
-        if self.phase.kind in IMPLICIT:
+        if self.phase.kind in IMPLICIT_PHASE_KINDS:
             return self.loop.get("time", 0.0)
         return (self.step_index - self.phase_start_step) * self.dt
 
@@ -484,7 +482,7 @@ class Run:
 
     def _stop_step(self) -> int | None:
         """The step at which ``--end-time`` stops the run (None without it, or without phases)."""
-        if self.stop_time is None or not self.staged or self.phase.kind in IMPLICIT:
+        if self.stop_time is None or not self.staged or self.phase.kind in IMPLICIT_PHASE_KINDS:
             return None
         return self.phase_start_step + math.ceil((self.stop_time - self.phase_start_time) / self.dt - 1e-9)
 
@@ -576,7 +574,7 @@ class Run:
                 return NOT_CONVERGED
             converged = stepper.solve(t + step, step)
             self.loop["time"] = t
-            if getattr(stepper, "collapsed", False):
+            if stepper is self.split and stepper.collapsed:
                 self._write_frame()
                 return NOT_CONVERGED
             smallest = 1e-12 * phase.duration

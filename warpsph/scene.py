@@ -467,12 +467,14 @@ class Output:
 
 
 PHASE_KINDS = ("k0", "equilibrium", "safety", "dynamic", "flow", "consolidation")
+"""Kinds of :class:`Phase` (docs/scenes.md, *Phases*)."""
+IMPLICIT_PHASE_KINDS = ("flow", "consolidation")
+"""Kinds of :class:`Phase` that advance the pore water in implicit steps sized by accuracy."""
 FAILURE_DISPLACEMENT = 0.02
 """A safety trial's default failure displacement as a fraction of the bodies' height [-]. Measured on
 Griffiths & Lane's slope (12 m of soil), the largest displacement of trials that come to rest: at
 Δx = 1 m 0.10, 0.18 and 0.22 m at F = 1.375, 1.406 and 1.422, then 0.47 m at 1.4375 and 0.78 m at
 1.5; at Δx = 0.5 m 0.02 m at 1.375 and 0.35 m at 1.4375 (docs/scenes.md, *Phases*)."""
-"""Kinds of :class:`Phase` (docs/scenes.md, *Phases*)."""
 
 
 @dataclass

@@ -36,6 +36,7 @@ from warpsph.scene import (
     Load,
     Material,
     Output,
+    IMPLICIT_PHASE_KINDS,
     PHASE_KINDS,
     Phase,
     PressureSolver,
@@ -330,7 +331,7 @@ def _check_changing_water(scene: Scene) -> None:
     """Drainage time functions act in flow phases: drainage that changes in time may not reach a
     phase that would hold it constant."""
     kinds = [p.kind for p in scene.phases] or ["dynamic"]
-    mechanical = [k for k in kinds if k not in ("flow", "consolidation", "k0")]
+    mechanical = [k for k in kinds if k != "k0" and k not in IMPLICIT_PHASE_KINDS]
     coupled = [p for p in scene.phases
                if p.kind in ("equilibrium", "safety", "dynamic") and p.pore_pressure == "coupled"]  # fmt: skip
     if not scene.phases and scene.effects.pore_water:
@@ -412,7 +413,7 @@ def _check_phases(scene: Scene) -> None:
         check_choice(f"{key}.pore_pressure", phase.pore_pressure, ("coupled", "fixed"))
         if phase.pore_pressure == "fixed":
             _needs_pore_water(f"{key}.pore_pressure", scene.effects, '"fixed" pore pressures ')
-        if phase.kind in ("flow", "consolidation"):
+        if phase.kind in IMPLICIT_PHASE_KINDS:
             _check_flow_phase(phase, key, scene)
         if phase.kind == "safety" and not scene.effects.plasticity:
             raise SceneError(f"{key}.kind", '"safety" reduces strengths: it needs effects.plasticity = true and '
