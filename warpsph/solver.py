@@ -24,6 +24,7 @@ from warpsph.stages.boundaries import Boundaries
 from warpsph.stages.collocated import RK_TABLEAU, collocated_kernels
 from warpsph.stages.corrections import FitData, compute_fit_data
 from warpsph.stages.damping import EQUILIBRIUM_VELOCITY_FILTER, LocalDamping
+from warpsph.stages.energy import EnergyLedger
 from warpsph.stages.ghost_layout import GhostLayout
 from warpsph.stages.groundwater_kernels import groundwater_kernels
 from warpsph.stages.rigid import RigidRegions
@@ -55,7 +56,9 @@ class Solver:
         self.profile = profile
         self.stage_seconds: dict[str, float] = {}
         self.boundaries = Boundaries(model)
-        self.rigid = RigidRegions(model)
+        self.energy = EnergyLedger(model)
+        """The particles' energy ledger the step adds to (:mod:`warpsph.stages.energy`)."""
+        self.rigid = RigidRegions(model, self.energy.ledger)
         s, dev = model.spec, model.device
         self.layout: GhostLayout | None = None
         """Re-plans the ghosts as the body moves (``simulation.large_deformation`` only)."""
@@ -74,13 +77,14 @@ class Solver:
         self._moving_reservoirs = model.pore is not None and any(
             r.time_function.kind != "constant" for r in model.pore.reservoirs)
         """Whether a reservoir's level changes in time (its level is then set every step)."""
+        self.stages.append(Stage("boundary_work", self._boundary_work))
         self.damping: LocalDamping | None = None
         """Local damping of an equilibrium phase (``damping`` = its coefficient α), the last stage."""
         self.velocity_filter = model.scene.simulation.velocity_filter
         """The full step's velocity filter β: at least ``EQUILIBRIUM_VELOCITY_FILTER`` in equilibrium phases."""
         if damping is not None:
             self.velocity_filter = max(self.velocity_filter, EQUILIBRIUM_VELOCITY_FILTER)
-            self.damping = LocalDamping(model, damping)
+            self.damping = LocalDamping(model, damping, self.energy.ledger)
             self.stages.append(Stage("local_damping", lambda si, so, t, dt: self.damping.run(si, so, dt)))
 
     # -- two-set Taylor-SPH -------------------------------------------------------------------
@@ -213,7 +217,7 @@ class Solver:
                 self.real_shift,
                 own, real(m.scene.simulation.stress_filter), real(self.velocity_filter),
                 int(not m.scene.simulation.large_deformation), real(m.scene.simulation.dx), self._surface_weight,
-                self._surface_water], m.device)  # fmt: skip
+                self._surface_water, m.particle_mass, self.energy.ledger], m.device)  # fmt: skip
 
     def _virtual_continuity(self, si: State, so: State, t: float, dt: float) -> None:
         """The virtual points' densities follow the motion of the real particles around them over the
@@ -258,15 +262,26 @@ class Solver:
     def _project(self, si: State, so: State, t: float, dt: float) -> None:
         """Pressure projection, then the prescribed velocities again (the correction moves them)."""
         self.projection.project(si, so, dt)
-        self.boundaries.prescribe(so.particle_q, so.particle_v, so.particle_stress, so.particle_pore_pressure)
+        self.boundaries.prescribe(so.particle_q, so.particle_v, so.particle_stress, so.particle_density,
+                                  self.energy.ledger, so.particle_pore_pressure)
         self.rigid.prescribe(so.particle_v)
 
     def _prescribe(self, si: State, so: State, t: float, dt: float) -> None:
         self.boundaries.set_time(t + dt)
         if self.layout is not None:
             self.layout.keep_inside(so.particle_q, so.particle_v, so.particle_stress, so.particle_density, dt)
-        self.boundaries.prescribe(so.particle_q, so.particle_v, so.particle_stress, self._stress_pressure(si))
+        self.boundaries.prescribe(so.particle_q, so.particle_v, so.particle_stress, so.particle_density,
+                                  self.energy.ledger, self._stress_pressure(si))
         self.rigid.prescribe(so.particle_v)
+
+    def _boundary_work(self, si: State, so: State, t: float, dt: float) -> None:
+        """The boundary planes' work on the particles lying on them over the step (the ledger's)."""
+        if self.model.pore is None:
+            self.energy.add_boundary_work(si, so)
+        else:
+            held = self.fixed_pore_pressure
+            self.energy.add_boundary_work(si, so, self._stress_pressure(si),
+                                          self._stress_pressure(si) if held else so.particle_pore_pressure)
 
     def _stress_pressure(self, si: State):
         """The pore pressure the step's total stress carries: the state's, or with fixed pore pressures

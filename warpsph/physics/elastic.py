@@ -8,6 +8,7 @@ dσ′/dt = λ tr(d) I + 2G d; the source part is the Jaumann spin term S(σ′)
 
 import functools
 
+import numpy as np
 import warp as wp
 
 from warpsph.sph.spec import Spec
@@ -54,3 +55,24 @@ def elastic_functions(spec: Spec):
         return half * (L + G), half * (L - G)
 
     return hooke_rate, source_increment, split_velocity_gradient
+
+
+@functools.cache
+def strain_energy_function(spec: Spec):
+    """The Warp function ``strain_energy_density(σ′, λ, G)``: ½ σ′:C⁻¹:σ′ [J/m³], the elastic energy
+    the linear law stores in a stress state (plane strain keeps σ′_zz, so the 3D compliance is exact)."""
+    real, mat33 = spec.real, spec.mat33
+
+    @wp.func
+    def strain_energy_density(s: mat33, lam: real, shear: real):
+        tr = wp.trace(s)
+        return (wp.ddot(s, s) - lam / (real(3.0) * lam + real(2.0) * shear) * tr * tr) / (real(4.0) * shear)
+
+    return strain_energy_density
+
+
+def strain_energy_density(stress, lam, shear):
+    """Host twin of :func:`strain_energy_function`: ½ σ′:C⁻¹:σ′ [J/m³] of stresses (N,3,3) [Pa] with the
+    Lamé constants λ, G (N,) [Pa]."""
+    tr = np.trace(stress, axis1=1, axis2=2)
+    return (np.einsum("nij,nij->n", stress, stress) - lam / (3.0 * lam + 2.0 * shear) * tr * tr) / (4.0 * shear)

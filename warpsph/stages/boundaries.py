@@ -28,7 +28,9 @@ import warp as wp
 
 from warpsph.launching import launch
 from warpsph.model import PLANE_FIXED, PLANE_SLIP, PLANE_TRACTION, PLANE_VELOCITY, Model
+from warpsph.physics.elastic import strain_energy_function
 from warpsph.sph.spec import Spec
+from warpsph.stages.energy import BOUNDARIES
 
 
 @functools.cache
@@ -70,6 +72,7 @@ def _kernels(spec: Spec):
     two = real(2.0)
     pore_water = spec.effects.pore_water
     traction_here, drainage_here = plane_functions(spec)
+    psi = strain_energy_function(spec)
 
     @wp.func
     def pore_pressure_at(i: int, x: vec3, pore: wp.array(dtype=wp.float64), material: wp.array(dtype=wp.int32),
@@ -179,7 +182,14 @@ def _kernels(spec: Spec):
         q: wp.array(dtype=vec3),
         v: wp.array(dtype=vec3),
         stress: wp.array(dtype=mat33),
+        mass: wp.array(dtype=real),
+        density: wp.array(dtype=real),
+        lam: wp.array(dtype=real),
+        shear: wp.array(dtype=real),
+        ledger: wp.array2d(dtype=wp.float64),
     ):
+        """The planes' values on their particles; the kinetic and elastic energy this gives a particle is
+        the planes' work on it in the energy ledger."""
         i = wp.tid()
         a = particle[i]
         u = v[a]
@@ -206,6 +216,10 @@ def _kernels(spec: Spec):
                         if drainage_here(p, origin[a], m, drainage, drained_lo, drained_hi) != 1:
                             s[m, m] = s[m, m] + pore_pressure_at(a, q[a], pore, material, water_density, gravity,
                                                                  water_table)  # fmt: skip
+        mat = material[a]
+        given = real(0.5) * mass[a] * (wp.dot(u, u) - wp.dot(v[a], v[a]))
+        given += mass[a] / density[a] * (psi(s, lam[mat], shear[mat]) - psi(stress[a], lam[mat], shear[mat]))
+        ledger[a, BOUNDARIES] += wp.float64(given)
         v[a] = u
         stress[a] = s
 
@@ -333,14 +347,14 @@ class Boundaries:
         launch(_copy_kernel(m.spec), m.particle_ghost_count, [m.particle_count, m.particle_ghost_source, values],
                m.device)  # fmt: skip
 
-    def prescribe(self, q, v, stress, pore=None) -> None:
+    def prescribe(self, q, v, stress, density, ledger, pore=None) -> None:
         """Set prescribed velocities and tractions on plane particles (tractions are total stresses:
-        with pore water, ``pore`` holds the excess pore pressure); rigid regions are
-        :mod:`warpsph.stages.rigid`'s."""
+        with pore water, ``pore`` holds the excess pore pressure), entering the energy they give in
+        ``ledger`` (:mod:`warpsph.stages.energy`); rigid regions are :mod:`warpsph.stages.rigid`'s."""
         m = self.model
         _, on_planes, *_ = _kernels(m.spec)
         plane_args = self._plane_args()
         launch(on_planes, m.constraint_count,
                [m.constraint_particle, m.constraint_planes, plane_args[0], *plane_args[2:],
-                *self._water_args(m.particle_material, pore), *self._drainage_args(), m.particle_origin, q, v, stress],
-               m.device)  # fmt: skip
+                *self._water_args(m.particle_material, pore), *self._drainage_args(), m.particle_origin, q, v, stress,
+                m.particle_mass, density, m.material_lambda, m.material_shear, ledger], m.device)  # fmt: skip

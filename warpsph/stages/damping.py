@@ -4,7 +4,8 @@ After the step has computed every particle's new velocity, the acceleration of t
 vⁿ)/Δt is the unbalanced force per unit mass; each component is damped by a force against the
 particle's motion in proportion to it, a_d = a − α |a| sign(vⁿ) (Cundall's local damping, as FLAC
 uses it: no frequency to tune, off outside equilibrium phases; docs/scenes.md, *Phases*). The same
-pass sums Σ m‖a‖ and the kinetic energy ½ Σ m v² of the owned particles. Particles whose velocity
+pass sums Σ m‖a‖ and the kinetic energy ½ Σ m v² of the owned particles, and enters the kinetic energy
+the damping removed in the energy ledger (:mod:`warpsph.stages.energy`). Particles whose velocity
 a plane or a rigid load prescribes are left as they are.
 
 Local damping acts on the accelerations the virtual points' stresses give; the real particles' odd-even
@@ -23,6 +24,7 @@ import warp as wp
 from warpsph.launching import launch
 from warpsph.model import PLANE_VELOCITY, Model
 from warpsph.sph.spec import Spec
+from warpsph.stages.energy import DAMPING
 
 
 EQUILIBRIUM_VELOCITY_FILTER = 0.5
@@ -46,6 +48,7 @@ def damping_kernel(spec: Spec):
         v_in: wp.array(dtype=vec3),
         v_out: wp.array(dtype=vec3),
         sums: wp.array(dtype=wp.float64),
+        ledger: wp.array2d(dtype=wp.float64),
     ):
         i = wp.tid()
         a = (v_out[i] - v_in[i]) / dt
@@ -53,7 +56,10 @@ def damping_kernel(spec: Spec):
             damped = vec3()
             for k in range(3):
                 damped[k] = a[k] - alpha * wp.abs(a[k]) * wp.sign(v_in[i][k])
+            undamped = v_out[i]
             v_out[i] = v_in[i] + dt * damped
+            removed = real(0.5) * mass[i] * (wp.dot(undamped, undamped) - wp.dot(v_out[i], v_out[i]))
+            ledger[i, DAMPING] += wp.float64(removed)
         wp.atomic_add(sums, 0, wp.float64(mass[i] * wp.length(a)))
         wp.atomic_add(sums, 1, wp.float64(real(0.5) * mass[i] * wp.dot(v_out[i], v_out[i])))
 
@@ -78,8 +84,8 @@ class LocalDamping:
     """The damping pass of an equilibrium phase: ``run`` after the step's prescribed values; the sums
     accumulate over the steps between two :meth:`read` calls."""
 
-    def __init__(self, model: Model, alpha: float):
-        self.model, self.alpha = model, alpha
+    def __init__(self, model: Model, alpha: float, ledger: wp.array):
+        self.model, self.alpha, self.ledger = model, alpha, ledger
         dev = model.device
         self.free = wp.array((~velocity_prescribed(model)).astype(np.int32), dtype=wp.int32, device=dev)
         self.sums = wp.zeros(2, dtype=wp.float64, device=dev)
@@ -89,7 +95,7 @@ class LocalDamping:
         m = self.model
         launch(damping_kernel(m.spec), m.particle_count,
                [m.spec.real(self.alpha), m.spec.real(dt), m.particle_mass, self.free, si.particle_v, so.particle_v,
-                self.sums], m.device)  # fmt: skip
+                self.sums, self.ledger], m.device)  # fmt: skip
         self.steps += 1
 
     def read(self) -> tuple[float, float]:

@@ -24,6 +24,7 @@ import warp as wp
 
 from warpsph.launching import launch
 from warpsph.sph.spec import Spec
+from warpsph.stages.energy import RIGID
 
 MODE_VELOCITY, MODE_FORCE = 0, 1
 RIGID_LOAD_KINDS = {"velocity": MODE_VELOCITY, "force": MODE_FORCE}
@@ -74,16 +75,19 @@ def _kernels(spec: Spec):
         v_rigid: wp.array(dtype=vec3),
         v: wp.array(dtype=vec3),
         impulse: wp.array(dtype=vec3),
+        ledger: wp.array2d(dtype=wp.float64),
     ):
         """Set the constrained part of the region's particle velocities (all of it for a rough
         contact, the drive direction's for a smooth one) to the rigid velocity, summing the drive's
-        impulse [N s]."""
+        impulse [N s] and entering the kinetic energy it gives the particle in the energy ledger."""
         i = wp.tid()
         a = particle[i]
         k = load[i]
         dv = constrained[k] * (v_rigid[k] - v[a])
         wp.atomic_add(impulse, k, mass[a] * dv)
-        v[a] = v[a] + dv
+        v_new = v[a] + dv
+        ledger[a, RIGID] += wp.float64(real(0.5) * mass[a] * (wp.dot(v_new, v_new) - wp.dot(v[a], v[a])))
+        v[a] = v_new
 
     @wp.kernel(enable_backward=False, module="unique")
     def start_velocity(first: wp.array(dtype=wp.int32), v: wp.array(dtype=vec3), v_start: wp.array(dtype=vec3)):
@@ -128,8 +132,9 @@ def _constrained(load) -> np.ndarray:
 class RigidRegions:
     """The rigid regions of a model: their velocities, and the contact force each exerts."""
 
-    def __init__(self, model):
-        self.model = model
+    def __init__(self, model, ledger: wp.array):
+        self.model, self.ledger = model, ledger
+        """The energy ledger (:mod:`warpsph.stages.energy`) the drives' energy is entered in."""
         m, real, vec3 = model, model.spec.real, model.spec.vec3
         loads = [ld for ld in model.scene.loads if ld.kind in RIGID_LOAD_KINDS]
         self.names = [ld.name for ld in loads]
@@ -203,7 +208,7 @@ class RigidRegions:
                 m.spec.real(impulse_dt), self.v_rigid], m.device)  # fmt: skip
         self._applied = True
         launch(assign, m.region_count, [m.region_particle, m.region_load, m.particle_mass, self.constrained,
-                                        self.v_rigid, v, self.impulse], m.device)  # fmt: skip
+                                        self.v_rigid, v, self.impulse, self.ledger], m.device)  # fmt: skip
 
     def contact_forces(self) -> np.ndarray:
         """(K,3) force each region exerts on the rest of the body over the last step [N/m or N]."""

@@ -46,11 +46,12 @@ import functools
 
 import warp as wp
 
-from warpsph.physics.elastic import elastic_functions
+from warpsph.physics.elastic import elastic_functions, strain_energy_function
 from warpsph.physics.plasticity import material_struct, plastic_functions
 from warpsph.sph.kernels import smoothing_functions
 from warpsph.sph.operators import operator_functions
 from warpsph.sph.spec import Spec
+from warpsph.stages.energy import GRAVITY, PLASTIC, PORE_WATER, STABILISATION, VISCOUS
 from warpsph.stages.shifting import shifting_kernels
 from warpsph.stages.surface_water import SurfaceWater, water_against_surface
 
@@ -70,6 +71,7 @@ def taylor_kernels(spec: Spec):
     _W, grad_W = smoothing_functions(spec)
     shift_scaled = shifting_kernels(spec)[2]
     hooke_rate, source_increment, split_velocity_gradient = elastic_functions(spec)
+    psi = strain_energy_function(spec)
     zero, half, one, two, two_thirds = real(0.0), real(0.5), real(1.0), real(2.0), real(2.0 / 3.0)
     share_floor = real(SURFACE_SHARE_FLOOR)
     moves = vec3(*map(real, spec.axis_mask))  # points move only along the used axes (1D shear: v_x ≠ 0)
@@ -376,10 +378,13 @@ def taylor_kernels(spec: Spec):
         spacing: real,
         surface_weight: real,
         surface_water: SurfaceWater,
+        mass: wp.array(dtype=real),
+        ledger: wp.array2d(dtype=wp.float64),
     ):
         """``surface_per_share``: 1 to divide the surface term by the particle's share (off with large
         deformation, docs/method.md); ``spacing``: the lattice spacing Δx [m], the virtual points lying half
-        of it inside a free surface whose real particles lie on it; ``surface_weight`` as in the half step."""
+        of it inside a free surface whose real particles lie on it; ``surface_weight`` as in the half step;
+        ``ledger``: the particle's row gains the step's energies (:mod:`warpsph.stages.energy`)."""
         a = first + wp.tid()
         x = q[a]
         mat = material[a]
@@ -417,6 +422,14 @@ def taylor_kernels(spec: Spec):
             plastic_strain_out[a] = plastic_strain[a] + d_eps
         else:
             s_new = s + dt * hooke_rate(d, lam[mat], shear[mat]) + source_increment(s, spin, dt)
+        vol = mass[a] / rho
+        if wp.static(plasticity):
+            # the law's work V σ̄:Δt d less the elastic energy it stores: the plastic dissipation
+            stored = psi(s_new, lam[mat], shear[mat]) - psi(s, lam[mat], shear[mat])
+            ledger[a, PLASTIC] += wp.float64(vol * (dt * wp.ddot(half * (s + s_new), d) - stored))
+        if wp.static(pore_water):
+            ledger[a, PORE_WATER] += wp.float64(vol * real(p) * dt * wp.trace(d))
+        s_law = s_new
         if free:
             v_half = v[a] + half * dt * body_force
         visc = vec3(zero, zero, zero)
@@ -447,7 +460,9 @@ def taylor_kernels(spec: Spec):
                 psi_i, phi_i = fit_weights(virt_q[i] - x, h, real_fit_c[a], real_fit_inv_den[a], real_fit_minv[a])
                 d_s += (virt_mass[i] / virt_density[i] * wp.dot(phi_i, dx)) * virt_stress_half[i]
             d_s -= wp.dot(real_fit_e[a], dx) * s_half
-        v_out[a] = v[a] + dt * (div / rho + body_force + visc) + d_v
+        v_force = v[a] + dt * (div / rho + body_force + visc)
+        ledger[a, VISCOUS] -= wp.float64(dt * mass[a] * wp.dot(half * (v[a] + v_force), visc))
+        v_out[a] = v_force + d_v
         if velocity_filter > zero and not free:
             # the part of the particle's velocity the virtual points do not see: its own mid-step
             # velocity against the one fitted at it from their v^{n+½}, which moves it
@@ -457,6 +472,10 @@ def taylor_kernels(spec: Spec):
             # value against the virtual points' Φ^{n+½} fitted back at it
             s_new -= stress_filter * (half * (s + s_new) - s_half)
         stress_out[a] = s_new + d_s
+        # what the filters and the shift changed of the particle's kinetic and elastic energy
+        kinetic = half * mass[a] * (wp.dot(v_out[a], v_out[a]) - wp.dot(v_force, v_force))
+        elastic = vol * (psi(s_new + d_s, lam[mat], shear[mat]) - psi(s_law, lam[mat], shear[mat]))
+        ledger[a, STABILISATION] -= wp.float64(kinetic + elastic)
         if own_velocity != 0:
             # the particle moves with its own velocity, the mean of vⁿ and vⁿ⁺¹ (the shift's
             # correction of the field aside): a velocity it gains also moves it
@@ -464,6 +483,7 @@ def taylor_kernels(spec: Spec):
         else:
             q_out[a] = x + dt * wp.cw_mul(v_half, moves) + dx
         density_out[a] = rho * wp.exp(opening - dt * wp.trace(d))
+        ledger[a, GRAVITY] += wp.float64(mass[a] * wp.dot(body_force, q_out[a] - x))
 
     @wp.kernel(enable_backward=False, module="unique")
     def virtual_continuity(
