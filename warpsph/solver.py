@@ -278,10 +278,9 @@ class Solver:
         """The boundary planes' work on the particles lying on them over the step (the ledger's)."""
         if self.model.pore is None:
             self.energy.add_boundary_work(si, so)
-        else:
-            held = self.fixed_pore_pressure
-            self.energy.add_boundary_work(si, so, self._stress_pressure(si),
-                                          self._stress_pressure(si) if held else so.particle_pore_pressure)
+            return
+        before = self._stress_pressure(si)
+        self.energy.add_boundary_work(si, so, before, before if self.fixed_pore_pressure else so.particle_pore_pressure)
 
     def _stress_pressure(self, si: State):
         """The pore pressure the step's total stress carries: the state's, or with fixed pore pressures

@@ -38,7 +38,9 @@ def _boundary_kernel(spec: Spec):
     @wp.kernel(enable_backward=False, module="unique")
     def boundary_work(
         particle: wp.array(dtype=wp.int32),
-        normal: wp.array(dtype=vec3),
+        planes_of: wp.array(dtype=wp.vec3i),
+        plane_axis: wp.array(dtype=wp.int32),
+        plane_sign: wp.array(dtype=real),
         spacing: real,
         mass: wp.array(dtype=real),
         density: wp.array(dtype=real),
@@ -51,36 +53,26 @@ def _boundary_kernel(spec: Spec):
         pore_water: int,
         ledger: wp.array2d(dtype=wp.float64),
     ):
-        """The work σ̄ (A n)·Δx [J, J/m in 2D] of the traction a plane puts on a particle lying on it,
-        σ̄ the step's mean total stress, A = V/Δx at tⁿ."""
-        e = wp.tid()
-        a = particle[e]
+        """The work σ̄ (A n)·Δx [J, J/m in 2D] of the tractions the planes a particle lies on put on it,
+        σ̄ the step's mean total stress, n each plane's outward normal, A = V/Δx at tⁿ."""
+        i = wp.tid()
+        a = particle[i]
         s = half * (stress_in[a] + stress_out[a])
         if pore_water != 0:
             p = half * real(pressure_in[a] + pressure_out[a])
             s = s - p * wp.identity(3, dtype=real)
         area = mass[a] / (density[a] * spacing)
-        work = area * wp.dot(s * normal[e], q_out[a] - q_in[a])
-        wp.atomic_add(ledger, a, BOUNDARIES, wp.float64(work))
+        moved = q_out[a] - q_in[a]
+        planes = planes_of[i]
+        work = real(0.0)
+        for c in range(3):
+            if planes[c] >= 0:
+                normal = vec3(real(0.0), real(0.0), real(0.0))
+                normal[plane_axis[planes[c]]] = plane_sign[planes[c]]
+                work += area * wp.dot(s * normal, moved)
+        ledger[a, BOUNDARIES] += wp.float64(work)
 
     return boundary_work
-
-
-def plane_faces(model: Model) -> tuple[np.ndarray, np.ndarray]:
-    """The particles lying on the boundary planes at the start and the outward normal (M,3) of the plane
-    each lies on (a particle on two planes appears twice)."""
-    x0, tol = model.particle_x0, 1.0e-6 * model.dx
-    plane_axis, position = model.plane_axis.numpy(), model.plane_position.numpy()
-    sign = model.plane_sign.numpy()
-    particles, normals = [np.zeros(0, np.int64)], [np.zeros((0, 3))]
-    for p in range(model.plane_count):
-        axis = int(plane_axis[p])
-        on = np.nonzero(np.abs(x0[:, axis] - position[p]) <= tol)[0]
-        normal = np.zeros((len(on), 3))
-        normal[:, axis] = float(sign[p])
-        particles.append(on)
-        normals.append(normal)
-    return np.concatenate(particles), np.concatenate(normals)
 
 
 class EnergyLedger:
@@ -89,30 +81,25 @@ class EnergyLedger:
 
     def __init__(self, model: Model):
         self.model = model
-        dev = model.device
-        self.ledger = wp.zeros((model.particle_capacity, CHANNELS), dtype=wp.float64, device=dev)
-        particles, normals = plane_faces(model)
-        self.face_particle = wp.array(particles.astype(np.int32), dtype=wp.int32, device=dev)
-        self.face_normal = wp.array(normals, dtype=model.spec.vec3, device=dev)
-        self._no_pressure = wp.zeros(1, dtype=wp.float64, device=dev)
+        self.ledger = wp.zeros((model.particle_capacity, CHANNELS), dtype=wp.float64, device=model.device)
+        self._no_pressure = wp.zeros(1, dtype=wp.float64, device=model.device)
 
     def add_boundary_work(self, si: State, so: State, pressure_in=None, pressure_out=None) -> None:
+        """The planes' work over the step from ``si`` to ``so`` on the particles lying on them (the
+        model's constraint lists); with pore water the pore pressures at both ends."""
         m = self.model
-        if not len(self.face_particle):
+        if not m.constraint_count:
             return
         pore = pressure_in is not None
-        launch(_boundary_kernel(m.spec), len(self.face_particle),
-               [self.face_particle, self.face_normal, m.spec.real(m.dx), m.particle_mass, si.particle_density,
-                si.particle_q, so.particle_q, si.particle_stress,
+        launch(_boundary_kernel(m.spec), m.constraint_count,
+               [m.constraint_particle, m.constraint_planes, m.plane_axis, m.plane_sign, m.spec.real(m.dx),
+                m.particle_mass, si.particle_density, si.particle_q, so.particle_q, si.particle_stress,
                 so.particle_stress, pressure_in if pore else self._no_pressure,
                 pressure_out if pore else self._no_pressure, int(pore), self.ledger], m.device)  # fmt: skip
 
     def totals(self) -> np.ndarray:
-        """(CHANNELS,) sums over the owned particles since the ledger was last zeroed."""
+        """(CHANNELS,) sums over the owned particles."""
         return self.ledger.numpy()[: self.model.particle_count].sum(axis=0)
-
-    def zero(self) -> None:
-        self.ledger.zero_()
 
 
 def stored_energies(model: Model, state: State) -> tuple[float, float]:

@@ -474,7 +474,7 @@ def taylor_kernels(spec: Spec):
         stress_out[a] = s_new + d_s
         # what the filters and the shift changed of the particle's kinetic and elastic energy
         kinetic = half * mass[a] * (wp.dot(v_out[a], v_out[a]) - wp.dot(v_force, v_force))
-        elastic = vol * (psi(s_new + d_s, lam[mat], shear[mat]) - psi(s_law, lam[mat], shear[mat]))
+        elastic = vol * (psi(stress_out[a], lam[mat], shear[mat]) - psi(s_law, lam[mat], shear[mat]))
         ledger[a, STABILISATION] -= wp.float64(kinetic + elastic)
         if own_velocity != 0:
             # the particle moves with its own velocity, the mean of vⁿ and vⁿ⁺¹ (the shift's
