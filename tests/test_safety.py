@@ -78,17 +78,47 @@ def test_strength_reduction_divides_c_and_tan_phi():
     assert np.tan(np.radians(reduced.dilatancy_angle)) == pytest.approx(np.tan(np.radians(10.0)) / 2.0)
 
 
+def searched(fos: float, width: int) -> tuple[FactorSearch, list[list[float]]]:
+    """The search of a slope whose trials stand below ``fos``, in rounds of ``width``; its rounds."""
+    search, rounds = FactorSearch(0.01, 10.0, width=width), []
+    while search.factors:
+        rounds.append(search.factors)
+        for factor in rounds[-1]:
+            search.record(factor, factor < fos)
+    return search, rounds
+
+
 @pytest.mark.parametrize("fos", [0.3, 1.234, 4.0, 12.0])
 def test_factor_search_brackets_to_its_tolerance(fos):
-    search = FactorSearch(0.01, 10.0)
-    tried = []
-    while search.factor is not None:
-        tried.append(search.factor)
-        search.record(search.factor < fos)
+    search, rounds = searched(fos, 1)
+    assert all(len(r) == 1 for r in rounds) and rounds[0] == [1.0]
     if fos > 10.0:
         assert not search.bracketed and search.result == 10.0
         return
-    assert search.bracketed and abs(search.result - fos) <= 0.01 and len(tried) < 20
+    assert search.bracketed and abs(search.result - fos) <= 0.01 and len(rounds) < 20
+
+
+@pytest.mark.parametrize("fos", [0.3, 1.234, 4.0, 12.0])
+def test_factor_search_in_rounds_of_parallel_trials(fos):
+    """Rounds of 4 trials: the first grows from F = 1, the bracket is then cut into 5 parts a round; the
+    same tolerance in half the rounds or fewer."""
+    search, rounds = searched(fos, 4)
+    assert rounds[0] == [1.0, 1.5, 2.25, 3.375]
+    assert len(rounds) <= max(2, (len(searched(fos, 1)[1]) + 1) // 2)
+    if fos > 10.0:
+        assert not search.bracketed and search.result == 10.0
+        return
+    assert search.bracketed and abs(search.result - fos) <= 0.01
+    assert search.low < fos <= search.high and search.high - search.low <= 0.02
+
+
+def test_factor_search_keeps_the_bracket_below_the_first_failure():
+    """A trial that stands above one that failed (a non-monotone outcome) does not move the bracket's
+    low end past its high end."""
+    search = FactorSearch(0.01, 10.0, width=3)
+    for factor, stands in zip(search.factors, (True, False, True)):  # 1.0 stands, 1.5 fails, 2.25 stands
+        search.record(factor, stands)
+    assert (search.low, search.high) == (1.0, 1.5) and search.factors == [1.125, 1.25, 1.375]
 
 
 @pytest.mark.parametrize("change, key, words", [
@@ -164,6 +194,29 @@ def test_stop_and_resume_inside_a_safety_phase_is_bit_identical(tmp_path):
     assert res.phases[2]["criterion"] == safety["criterion"]
     for key in ("position", "velocity", "stress", "plastic_strain"):
         assert np.array_equal(res.frame(-1)[key], ref.frame(-1)[key]), key
+
+
+def test_trials_on_dask_workers_match_the_trials_in_turn(tmp_path):
+    """``trial_workers = 2``: each round's two trials run at once on a local Dask cluster, each resumed
+    from the phase's start checkpoint; the first round's trials (F = 1 and 1.5) are bit-identical to
+    the same trials run in turn, every trial has its frame, and the factor of safety agrees within the
+    search's tolerance (measured: 1.083 from [1, 1.167] against 1.0625 from [1, 1.125] in turn, each
+    ± 0.1 at this coarse Δx and step cap)."""
+    scene = vertical_cut(0.5, strength_reduction_phases(600, 0.1))
+    warpsph.run_scene(scene, tmp_path / "in_turn", device="cpu")
+    summary = warpsph.run_scene(scene, tmp_path / "parallel", device="cpu", trial_workers=2)
+    in_turn, parallel = (warpsph.load_results(tmp_path / name / "results.h5").phases[2]
+                         for name in ("in_turn", "parallel"))  # fmt: skip
+    print(f"\nin turn: {in_turn['trials']}\nparallel: {parallel['trials']}")
+    assert summary.status == "finished" and parallel["outcome"] == "converged"
+    assert list(parallel["trials"][:2, 0]) == [1.0, 1.5]
+    assert np.array_equal(parallel["trials"][:2], in_turn["trials"][:2])
+    assert abs(parallel["criterion"] - in_turn["criterion"]) <= 0.1
+    results = warpsph.load_results(tmp_path / "parallel" / "results.h5")
+    factors = [results.frame_attrs(k).get("factor") for k in range(len(results))]
+    assert sorted(f for f in factors if f is not None) == sorted(parallel["trials"][:, 0])
+    assert summary.steps == warpsph.load_results(tmp_path / "in_turn" / "results.h5").steps[-1] + (
+        parallel["trials"][:, 3].sum() - in_turn["trials"][:, 3].sum())  # steps count as if run in turn
 
 
 def test_cut_too_weak_to_stand_reports_that_gravity_loading_did_not_converge(tmp_path):

@@ -39,6 +39,10 @@ def _parser() -> argparse.ArgumentParser:
     run.add_argument("--overwrite", action="store_true", help="replace the output of an earlier run in the run "
                      "directory")  # fmt: skip
     run.add_argument("--no-progress", action="store_true", help="no progress bar")
+    run.add_argument("--workers", type=int, default=None, help="safety phases: run each round's trials at once on "
+                     "this many local Dask worker processes (None or 1: in turn, in this process)")  # fmt: skip
+    run.add_argument("--scheduler", default=None, help="safety phases: run each round's trials at once on the "
+                     "workers of the Dask scheduler at this address, e.g. tcp://10.0.0.5:8786")  # fmt: skip
     val = sub.add_parser("validate", help="check a scene without running it")
     val.add_argument("scene", type=Path, help="scene file (TOML)")
     val.add_argument("--device", default=default_device(), help="Warp device the estimate is measured on")
@@ -90,8 +94,11 @@ def _run(args) -> int:
     from warpsph.runner import Run
 
     out = args.out or Path("runs") / scene.name
+    if args.workers is not None and args.workers < 1:
+        raise SceneError("--workers", f"must be >= 1, got {args.workers}")
     run = Run(scene, out, device=args.device, precision=args.precision, end_time=args.end_time,
-              resume=args.resume, overwrite=args.overwrite)  # fmt: skip
+              resume=args.resume, overwrite=args.overwrite, trial_workers=args.workers,
+              scheduler=args.scheduler)  # fmt: skip
     print(f"{scene.name}: {run.model.particle_count} particles, {run.model.virtual_count} virtual points, "
           f"dt = {run.dt:.4g} s, output in {out}")  # fmt: skip
     from warpsph.planning import count_steps
@@ -117,7 +124,8 @@ def _run(args) -> int:
             solve = f", Δt = {run.loop.get('dt', 0.0):.3g} s, {stepper.iterations} {what}"
         phase = f"phase {run.phase.name} ({run.phase.kind}), " if run.staged else ""
         if run.phase.kind == "safety" and "search" in run.loop:
-            phase += f"trial F = {run.loop['search']['factor']:.4g}, "
+            factors = run.loop["search"]["factors"]
+            phase += f"trial{'s' * (len(factors) > 1)} F = {', '.join(f'{f:.4g}' for f in factors)}, "
         ratio = f", ratio {run.loop['ratio']:.3g}" if "ratio" in run.loop else ""
         bar.set_postfix_str(f"{phase}step {step}{solve}{ratio}", refresh=False)
         bar.update((min(t, run.end_time) if total else t) - bar.n)
@@ -136,6 +144,10 @@ def _run(args) -> int:
         for factor, stood, ratio, steps, moved in p.get("trials", []):
             print(f"  trial F = {factor:.4g}: {'stands' if stood else 'fails'} (ratio {ratio:.3g} after {steps} steps, "
                   f"largest displacement {moved:.3g} m)")
+    for p in s.phases:  # the energy balance's checks (docs/method.md, Energy balance)
+        where = f"phase {p['name']}: " if run.staged else ""
+        for line in p["energy_warnings"]:
+            print(f"warpsph: warning: {where}{line}", file=sys.stderr)
     print(f"done: {s.steps} steps to t = {s.final_time:.6g} s in {s.wall_seconds:.2f} s "
           f"({s.particle_steps_per_second:.3g} particle-steps/s), compile {s.compile_seconds:.2f} s, "
           f"{s.frames} frames")  # fmt: skip

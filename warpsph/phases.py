@@ -56,44 +56,74 @@ def reduced_strength(material: Material, factor: float) -> Material:
 
 
 class FactorSearch:
-    """The strength-reduction search of a safety phase: trials from F = 1, grown (or shrunk) by
-    ``STEP`` until one trial stands and another fails, then bisected until the bracket is within
-    ± ``tolerance``; the factor of safety is the bracket's middle. Its state is plain data, kept in
-    checkpoints."""
+    """The strength-reduction search of a safety phase, in rounds of ``width`` trials that may run at
+    once: from F = 1 the factors grow (or shrink) by ``STEP`` until one trial stands and another fails,
+    then the bracket between the largest factor that stood below the smallest that failed is cut into
+    ``width`` + 1 equal parts until it is within ± ``tolerance``; the factor of safety is the bracket's
+    middle. With ``width`` 1 the search is a bisection. Its state is plain data, kept in checkpoints."""
 
     STEP = 1.5
     SMALLEST = 0.05
 
-    def __init__(self, tolerance: float, largest: float, state: dict | None = None):
-        self.tolerance, self.largest = tolerance, largest
-        self.state = state or {"low": None, "high": None, "factor": 1.0}
+    def __init__(self, tolerance: float, largest: float, state: dict | None = None, width: int = 1):
+        self.tolerance, self.largest, self.width = tolerance, largest, max(1, width)
+        self.state = state or {"stood": [], "failed": [], "factors": self._grown(1.0, include=True)}
+
+    @property
+    def factors(self) -> list[float]:
+        """The factors of the round's trials not yet recorded (empty: the search is over)."""
+        return list(self.state["factors"])
 
     @property
     def factor(self) -> float | None:
         """The next trial's factor (None: the search is over)."""
-        return self.state["factor"]
+        return self.state["factors"][0] if self.state["factors"] else None
 
-    def record(self, stands: bool) -> None:
-        """Take the outcome of the trial at :attr:`factor` and choose the next."""
+    def record(self, factor: float, stands: bool) -> None:
+        """Take the outcome of the trial at ``factor``, one of :attr:`factors`; the round recorded, choose
+        the next."""
         s = self.state
-        factor = s["factor"]
-        s["low" if stands else "high"] = factor
-        low, high = s["low"], s["high"]
+        s["factors"].remove(factor)
+        s["stood" if stands else "failed"].append(factor)
+        if not s["factors"]:
+            s["factors"] = self._next_round()
+
+    @property
+    def low(self) -> float | None:
+        """The largest factor that stood below the smallest that failed."""
+        high = self.high
+        stood = [f for f in self.state["stood"] if high is None or f < high]
+        return max(stood) if stood else None
+
+    @property
+    def high(self) -> float | None:
+        """The smallest factor that failed."""
+        return min(self.state["failed"]) if self.state["failed"] else None
+
+    def _grown(self, base: float, include: bool = False) -> list[float]:
+        first = 0 if include else 1
+        return sorted({min(base * self.STEP**k, self.largest) for k in range(first, first + self.width)})
+
+    def _next_round(self) -> list[float]:
+        low, high = self.low, self.high
         if high is None:
-            s["factor"] = None if factor >= self.largest else min(self.STEP * factor, self.largest)
-        elif low is None:
-            s["factor"] = None if factor <= self.SMALLEST else max(factor / self.STEP, self.SMALLEST)
-        else:
-            s["factor"] = 0.5 * (low + high) if high - low > 2.0 * self.tolerance else None
+            return [] if low >= self.largest else self._grown(low)
+        if low is None:
+            if high <= self.SMALLEST:
+                return []
+            return sorted({max(high / self.STEP**k, self.SMALLEST) for k in range(1, self.width + 1)})
+        if high - low <= 2.0 * self.tolerance:
+            return []
+        return [low + (high - low) * i / (self.width + 1) for i in range(1, self.width + 1)]
 
     @property
     def bracketed(self) -> bool:
-        return self.state["low"] is not None and self.state["high"] is not None
+        return self.low is not None and self.high is not None
 
     @property
     def result(self) -> float:
         """The factor of safety: the bracket's middle, or its one end if the search found no bracket."""
-        low, high = self.state["low"], self.state["high"]
+        low, high = self.low, self.high
         if self.bracketed:
             return 0.5 * (low + high)
         return low if low is not None else high

@@ -9,6 +9,9 @@ stays on disk.
 
 from __future__ import annotations
 
+import contextlib
+import copy
+import importlib.util
 import json
 import math
 import re
@@ -21,6 +24,7 @@ import time
 import warnings
 from dataclasses import asdict, dataclass, field
 from pathlib import Path
+from typing import NamedTuple
 
 import numpy as np
 import warp as wp
@@ -42,6 +46,7 @@ from warpsph.probes import Probes
 from warpsph.scene import FAILURE_DISPLACEMENT, IMPLICIT_PHASE_KINDS, Phase, Scene
 from warpsph.solver import Solver
 from warpsph.stages.consolidation import FixedStressSplit
+from warpsph.stages.energy import balance_warnings, energy_balance, energy_made
 from warpsph.stages.groundwater import GroundwaterFlow
 from warpsph.stages.guard import Guard
 
@@ -75,11 +80,34 @@ class RunSummary:
     """What stopped a run that did not finish (an interruption, an instability, an output error),
     and where its checkpoint is."""
     phases: list = field(default_factory=list)
-    """One {name, kind, outcome, criterion, steps} per phase run."""
+    """One {name, kind, outcome, criterion, steps, trials, energy, energy_warnings} per phase run
+    (energy: the balance at the phase's end, docs/method.md *Energy balance*)."""
 
     @property
     def particle_steps_per_second(self) -> float:
         return self.particles * self.steps / self.wall_seconds if self.wall_seconds > 0 else 0.0
+
+
+class FrameContent(NamedTuple):
+    """A frame's content: the host fields (:func:`host_fields`), the arrays written, and the energy
+    balance to write as series with it (a safety trial's, at its last state; else None)."""
+
+    fields: dict
+    frame: dict
+    balance: dict | None
+
+
+class TrialOutcome(NamedTuple):
+    """What a safety trial did (:meth:`Run.safety_trial`)."""
+
+    factor: float
+    converged: bool
+    ratio: float
+    """The final unbalanced-force ratio (inf where the run guard stopped the trial)."""
+    steps: int
+    moved: float
+    """The largest displacement from the phase's start [m] (inf where the run guard stopped the trial)."""
+    frame: FrameContent | None
 
 
 def host_fields(model: Model, state: State, rows: np.ndarray | None = None,
@@ -116,14 +144,16 @@ def host_fields(model: Model, state: State, rows: np.ndarray | None = None,
 
 def warm_up(solver: Solver, guard: Guard, state: State, scratch: State, t: float, dt: float) -> float:
     """Compile every kernel by one throw-away step from ``state`` into ``scratch`` (which is reset
-    to ``state`` afterwards) and clear the solver's statistics; return its wall time [s]."""
+    to ``state`` afterwards) and clear the solver's statistics and what it booked; return its wall time [s]."""
     start = time.perf_counter()
+    ledger = wp.clone(solver.energy.ledger)
     with warnings.catch_warnings():  # the throw-away step reports nothing
         warnings.simplefilter("ignore")
         solver.step(state, scratch, t, dt)
     guard.find(scratch)
     wp.synchronize_device(solver.model.device)
     scratch.assign(state)
+    solver.energy.ledger.assign(ledger)
     solver.stage_seconds.clear()
     if solver.projection is not None:
         solver.projection.reset_statistics()
@@ -133,8 +163,14 @@ def warm_up(solver: Solver, guard: Guard, state: State, scratch: State, t: float
 OUTPUT_RESERVE = 1 << 20
 """Bytes a frame or checkpoint write leaves free on the disk beyond twice its arrays [B]."""
 CHECK_EVERY = 10
-"""Steps between two reads of an equilibrium phase's unbalanced force (or a dynamic phase's kinetic
-energy): each read waits for the device."""
+"""Steps between two reads of an equilibrium phase's unbalanced force, a dynamic phase's kinetic
+energy, or the energy balance the run guard checks: each read waits for the device."""
+ENERGY_MADE_LIMIT = 0.25
+"""The run guard stops a run whose last ``CHECK_EVERY`` steps made more than this fraction of the energy
+in play from nothing (:func:`~warpsph.stages.energy.energy_made`), and more than ``ENERGY_GROWTH`` times
+what the ``CHECK_EVERY`` steps before made: an unstable mode's energy grows from one check to the next,
+where a phase's first steps, adjusting to what it changed, make theirs once."""
+ENERGY_GROWTH = 2.0
 
 
 class Run:
@@ -143,10 +179,16 @@ class Run:
 
     def __init__(self, scene: Scene, out_dir, *, device: str | None = None, precision: str | None = None,
                  end_time: float | None = None, resume: bool = False, overwrite: bool = False,
-                 profile: bool = False):  # fmt: skip
+                 profile: bool = False, trial_workers: int | None = None, scheduler: str | None = None):  # fmt: skip
         self.scene = scene
         self.out = Path(out_dir)
         check_device(device or default_device())
+        self.trial_workers, self.scheduler = trial_workers, scheduler
+        """Dask workers of a local cluster (more than 1), or the address of a Dask scheduler, that run the
+        trials of a safety phase's rounds at once; None: the trials run in turn in this process."""
+        if (scheduler or (trial_workers or 0) > 1) and importlib.util.find_spec("distributed") is None:
+            raise InputError("--workers, --scheduler: the safety trials run on dask.distributed: "
+                             "pip install 'warpsph[study]'")  # fmt: skip
         self.directory = RunDirectory(self.out, resume=resume, overwrite=overwrite)
         try:
             self._start(scene, device, precision, end_time, resume, profile)
@@ -239,6 +281,7 @@ class Run:
             self.origin = host_fields(self.model, self.state)["position"]
         self.probes.displacement_origin = self.origin
         self.loop = {}
+        self._start_energy()
         self._load_scale = None  # the phase's constant parts of the applied force (_applied_force)
         self.flow = self.split = None
         if phase.kind in IMPLICIT_PHASE_KINDS:
@@ -250,6 +293,18 @@ class Run:
                                           lambda: self.state)  # fmt: skip
         self.phase_start_step, self.phase_start_time = self.step_index, now
         self.records.append(PhaseRecord(phase.name, phase.kind, self.step_index, self.phase_start_time))
+
+    @property
+    def _books_energy(self) -> bool:
+        """Whether the phase's steps book their energies (docs/method.md, *Energy balance*): the two-set
+        scheme's explicit steps; a flow or consolidation phase's implicit steps do not."""
+        return self.model.spec.scheme == "two_set" and self.phase.kind not in IMPLICIT_PHASE_KINDS
+
+    def _energy_balance(self) -> dict[str, float] | None:
+        """The energy balance since the phase's start (a safety trial's: since the trial's), or None for
+        a phase whose steps do not book it."""
+        start = self.loop.get("energy_start")
+        return None if start is None else energy_balance(self.solver.energy.sums(self.state), start)
 
     def _k0_procedure(self) -> None:
         """Geostatic effective stresses of every active body at once (the K0 procedure): σ′_v from the
@@ -291,6 +346,8 @@ class Run:
             raise InputError("--resume: the checkpoint was written with another time step")
         if self.flow is not None and "flow_seeping" in ck.arrays:
             self.flow.seeping = ck.arrays["flow_seeping"].copy()
+        if "energy_ledger" in ck.arrays:
+            self.solver.energy.ledger.assign(ck.arrays["energy_ledger"])
         if "displacement_origin" in ck.arrays:
             self.origin = ck.arrays["displacement_origin"]
             self.probes.displacement_origin = self.origin
@@ -307,6 +364,7 @@ class Run:
         if self.solver.layout is not None:
             arrays.update(self.solver.layout.arrays())
         arrays["displacement_origin"] = self.origin
+        arrays["energy_ledger"] = self.solver.energy.ledger.numpy()
         if self.flow is not None:
             arrays["flow_seeping"] = self.flow.seeping
         self._room_for(arrays)
@@ -350,10 +408,9 @@ class Run:
         self.results.append_series("pressure_iterations", self.step_index, self.time, projection.iterations[-1])
         self.results.append_series("pressure_residual", self.step_index, self.time, projection.residuals[-1])
 
-    def _write_frame(self, **attrs) -> None:
-        """Write a frame of the current state (``attrs``: extra attributes of the frame)."""
+    def _frame(self) -> FrameContent:
+        """What a frame of the current state holds: the host fields and the frame's arrays."""
         fields = host_fields(self.model, self.state)
-        self._room_for(fields)
         frame = {"position": fields["position"]}
         if self.staged:
             frame["id"] = self.model.particle_ids
@@ -372,7 +429,15 @@ class Run:
             frame["darcy_velocity"] = self.solver.projection.darcy_velocity(self.state)
         if self.flow is not None:
             frame["saturation"] = self.flow.saturation_field()
+        return FrameContent(fields, frame, None)
+
+    def _write_frame(self, content: FrameContent | None = None, **attrs) -> None:
+        """Write a frame of the current state, or the ``content`` of one made elsewhere (a safety trial's
+        last state; ``attrs``: extra attributes of the frame)."""
+        fields, frame, balance = content or self._frame()
+        self._room_for(fields)
         self._sample_probes(fields)
+        self._energy_series(balance)
         name = self.results.write_frame(self.step_index, self.time, frame, phase=self.phase_index, **attrs)
         if self.staged:
             self.results.write_phases([asdict(r) for r in self.records])
@@ -460,7 +525,26 @@ class Run:
         self.step_index += 1
         self.summary.steps += 1
         self._check()
+        if (self.step_index - self.phase_start_step) % CHECK_EVERY == 0:
+            self._check_energy()
         self._record_pressure_solve()
+
+    def _check_energy(self) -> None:
+        """Stop the run once its last ``CHECK_EVERY`` steps made more than ``ENERGY_MADE_LIMIT`` of the
+        energy in play and more than ``ENERGY_GROWTH`` times what the ``CHECK_EVERY`` before made."""
+        balance = self._energy_balance()
+        if balance is None:
+            return
+        since, before = self.loop.get("energy_error", 0.0), self.loop.get("energy_made")
+        made = energy_made(balance, since, self.loop["energy_start"])
+        now = balance["error"] - since
+        self.loop["energy_error"], self.loop["energy_made"] = balance["error"], now
+        if self.phase.kind != "safety":  # a trial's balance is written with its frame
+            self._energy_series(balance)
+        if made > ENERGY_MADE_LIMIT and before is not None and now > ENERGY_GROWTH * before:
+            self._unstable(f"the last {CHECK_EVERY} steps made {now:.4g} J of energy from nothing, {100 * made:.3g} % "
+                           f"of the energy in play (at most {100 * ENERGY_MADE_LIMIT:g} %) and more than "
+                           f"{ENERGY_GROWTH:g} times what the {CHECK_EVERY} before made")  # fmt: skip
 
     def _output(self, last: bool, frame_every: int, ck_every: int) -> None:
         """Frames, probe samples and checkpoints at their cadence (steps since the phase's start)."""
@@ -705,37 +789,99 @@ class Run:
         when it converges within the phase's step cap, and fails at the cap or once a particle has
         moved farther than the failure displacement. Each trial's last state is written as a frame
         (attributes ``factor`` and ``converged``), the state is then put back to the phase's start and
-        checkpointed, so the next phase starts from the unreduced state."""
+        checkpointed, so the next phase starts from the unreduced state. With trial workers (``Run``'s
+        ``trial_workers`` or ``scheduler``) the trials of a round run at once on Dask, one per worker,
+        each from the phase's start checkpoint (:func:`safety_trial`); their steps count as if run in
+        turn."""
         phase, record = self.phase, self.records[-1]
-        search = FactorSearch(phase.factor_tolerance, phase.factor_max, self.loop.get("search"))
-        self.loop["search"] = search.state
+        with contextlib.ExitStack() as stack:
+            client = None
+            if self.scheduler or (self.trial_workers or 0) > 1:
+                from warpsph.study.execute import dask_client
+
+                client = stack.enter_context(dask_client(self.scheduler, self.trial_workers))
+            width = len(client.scheduler_info()["workers"]) if client is not None else 1
+            search = FactorSearch(phase.factor_tolerance, phase.factor_max, self.loop.get("search"), width)
+            self.loop["search"] = search.state
+            while search.factors:
+                if client is None:
+                    outcomes = [self.safety_trial(search.factor, progress)]
+                else:
+                    outcomes = self._remote_trials(client, search.factors)
+                for outcome in outcomes:
+                    record.trials.append([outcome.factor, int(outcome.converged), outcome.ratio, outcome.steps,
+                                          outcome.moved])  # fmt: skip
+                    self.step_index += outcome.steps
+                    if client is not None:
+                        self.summary.steps += outcome.steps
+                    if outcome.frame is not None:
+                        self._write_frame(outcome.frame, factor=outcome.factor, converged=int(outcome.converged))
+                    search.record(outcome.factor, outcome.converged)
+                self._checkpoint()
+                if progress is not None:
+                    progress(self.time, self.step_index)
+                stop = self._stop_step()
+                if search.factors and stop is not None and self.step_index >= stop:
+                    raise _Stopped()
+                self._stop_if_interrupted(checkpoint=False)
+        record.criterion = search.result
+        return CONVERGED if search.bracketed else NOT_CONVERGED
+
+    def _remote_trials(self, client, factors: list[float]) -> list[TrialOutcome]:
+        """The trials at ``factors`` on the Dask workers of ``client``, in the order of ``factors``."""
+        checkpoint = (self.out / CHECKPOINT).read_bytes()  # the phase's start and the search so far
+        futures = [client.submit(remote_safety_trial, self.scene, checkpoint, factor, self.device, self.precision,
+                                 key=f"warpsph-trial-{self.phase.name}-{factor!r}-{self.step_index}")
+                   for factor in factors]  # fmt: skip
+        return client.gather(futures)
+
+    def safety_trial(self, factor: float, progress=None) -> TrialOutcome:
+        """One trial of the current safety phase at ``factor`` from the current state (the phase's start),
+        which it then puts back with the step index; the outcome carries the frame of its last state
+        (None where the run guard stopped it: a mechanism ran away, the trial failed)."""
+        phase = self.phase
         start = {name: arr.numpy().copy() for name, arr in self.state.arrays().items()}
         materials = list(self.phase_scene.materials.values())
         spec, device = self.model.spec, self.model.device
         positions = start["particle_q"][: self.model.particle_count]
         limit = phase.failure_displacement or FAILURE_DISPLACEMENT * self._height(positions)
-        while search.factor is not None:
-            factor = search.factor
-            self.model.material_plasticity = plastic_materials(spec, [reduced_strength(m, factor) for m in materials],
-                                                               device)  # fmt: skip
-            first = self.step_index
-            self.loop.pop("ratio", None)
-            try:
-                converged, ratio = self._equilibrate(progress, first, output=False, start=(positions, limit))
-                moved = largest_displacement(self.state.particle_q, positions)
-            except SimulationError:  # the run guard stopped the trial: a mechanism ran away, the trial failed
-                converged, ratio, moved = False, math.inf, math.inf
-            record.trials.append([factor, int(converged), ratio, self.step_index - first, moved])
-            if math.isfinite(moved):
-                self._write_frame(factor=factor, converged=int(converged))
-            search.record(converged)
-            for name, arr in self.state.arrays().items():
-                arr.assign(start[name])
-            self.scratch.assign(self.state)
-            self._checkpoint()
+        self.model.material_plasticity = plastic_materials(spec, [reduced_strength(m, factor) for m in materials],
+                                                           device)  # fmt: skip
+        first = self.step_index
+        self.loop.pop("ratio", None)
+        self._start_energy()
+        try:
+            converged, ratio = self._equilibrate(progress, first, output=False, start=(positions, limit))
+            moved = largest_displacement(self.state.particle_q, positions)
+        except SimulationError:
+            converged, ratio, moved = False, math.inf, math.inf
+        frame = self._frame()._replace(balance=self._energy_balance()) if math.isfinite(moved) else None
+        steps = self.step_index - first
+        for name, arr in self.state.arrays().items():
+            arr.assign(start[name])
+        self.scratch.assign(self.state)
+        self.step_index = first
+        self._start_energy()
         self.model.material_plasticity = plastic_materials(spec, materials, device)
-        record.criterion = search.result
-        return CONVERGED if search.bracketed else NOT_CONVERGED
+        return TrialOutcome(factor, converged, ratio, steps, moved, frame)
+
+    def _energy_series(self, balance: dict[str, float] | None) -> None:
+        """The energy balance as series (``energy_kinetic``, …) at the current step."""
+        for key, value in (balance or {}).items():
+            self.results.append_series(f"energy_{key}", self.step_index, self.time, value)
+
+    def _start_energy(self) -> None:
+        """Start the energy balance (and the run guard's check of it) from the current state."""
+        if self._books_energy:
+            self.loop["energy_start"] = self.solver.energy.sums(self.state).tolist()
+            self.loop["energy_error"], self.loop["energy_made"] = 0.0, None
+
+    def _energy_report(self) -> dict:
+        """The phase's energy balance at its end and one line per check it fails (:func:`balance_warnings`;
+        the command line prints them): ``{"energy": ..., "energy_warnings": [...]}``, the balance None
+        for a phase that keeps none and for a safety phase (each trial's is with the trial's frame)."""
+        balance = self._energy_balance() if self.phase.kind != "safety" else None
+        return {"energy": balance, "energy_warnings": balance_warnings(balance) if balance is not None else []}
 
     def _height(self, positions: np.ndarray) -> float:
         """The bodies' extent along gravity [m] (their largest extent without gravity)."""
@@ -771,7 +917,8 @@ class Run:
                 record.last_step, record.end_time, record.outcome = self.step_index, self.time, outcome
                 self.summary.phases.append({"name": record.name, "kind": record.kind, "outcome": outcome,
                                             "criterion": record.criterion, "steps": record.last_step
-                                            - record.first_step, "trials": record.trials})  # fmt: skip
+                                            - record.first_step, "trials": record.trials,
+                                            **self._energy_report()})  # fmt: skip
                 if self.staged:
                     self.results.write_phases([asdict(r) for r in self.records])
                 if outcome in (STOPPED, NOT_CONVERGED):
@@ -850,6 +997,29 @@ class _Stopped(Exception):
 
 class _Interrupted(Exception):
     """SIGINT or SIGTERM asked the run to stop."""
+
+
+def remote_safety_trial(scene: Scene, checkpoint: bytes, factor: float, device: str | None,
+                        precision: str | None) -> TrialOutcome:  # fmt: skip
+    """One trial of a safety phase on a Dask worker: the run resumed from the phase's ``checkpoint``
+    (the bytes of its file) in a scratch directory, without USD or XDMF output, and its trial at
+    ``factor`` (:meth:`Run.safety_trial`)."""
+    import tempfile
+
+    from warpsph.environment import init_warp
+
+    init_warp()
+    scene = copy.deepcopy(scene)
+    scene.output.usd = scene.output.xdmf = False
+    with tempfile.TemporaryDirectory(prefix="warpsph-trial-") as scratch:
+        (Path(scratch) / CHECKPOINT).write_bytes(checkpoint)
+        run = Run(scene, scratch, device=device, precision=precision, resume=True)
+        try:
+            run._warm_up()
+            return run.safety_trial(factor)
+        finally:
+            run.results.close()
+            run.directory.release()
 
 
 def run_scene(scene: Scene, out_dir, **kwargs) -> RunSummary:

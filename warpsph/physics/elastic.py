@@ -8,7 +8,6 @@ dσ′/dt = λ tr(d) I + 2G d; the source part is the Jaumann spin term S(σ′)
 
 import functools
 
-import numpy as np
 import warp as wp
 
 from warpsph.sph.spec import Spec
@@ -69,10 +68,3 @@ def strain_energy_function(spec: Spec):
         return (wp.ddot(s, s) - lam / (real(3.0) * lam + real(2.0) * shear) * tr * tr) / (real(4.0) * shear)
 
     return strain_energy_density
-
-
-def strain_energy_density(stress, lam, shear):
-    """Host twin of :func:`strain_energy_function`: ½ σ′:C⁻¹:σ′ [J/m³] of stresses (N,3,3) [Pa] with the
-    Lamé constants λ, G (N,) [Pa]."""
-    tr = np.trace(stress, axis1=1, axis2=2)
-    return (np.einsum("nij,nij->n", stress, stress) - lam / (3.0 * lam + 2.0 * shear) * tr * tr) / (4.0 * shear)

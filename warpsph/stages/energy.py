@@ -12,14 +12,16 @@ import numpy as np
 import warp as wp
 
 from warpsph.launching import launch
-from warpsph.model import Model, State
-from warpsph.physics.elastic import strain_energy_density
+from warpsph.model import PLANE_SLIP, Model, State
+from warpsph.physics.elastic import strain_energy_function
 from warpsph.sph.spec import Spec
 
 PLASTIC, PORE_WATER, VISCOUS, STABILISATION, GRAVITY, BOUNDARIES, RIGID, DAMPING = range(8)
 """Columns of the ledger: dissipations (plastic, viscous, stabilisation, damping) are counted as
 energy lost, works (gravity, boundaries, rigid regions, pore water) as energy given."""
 CHANNELS = 8
+KINETIC, STRAIN, LEDGER = 0, 1, 2
+"""Entries of :meth:`EnergyLedger.sums`: kinetic energy, strain energy, then the ledger's columns."""
 DISSIPATIONS = {"plastic_dissipation": PLASTIC, "viscous_dissipation": VISCOUS,
                 "stabilisation_dissipation": STABILISATION, "damping_dissipation": DAMPING}  # fmt: skip
 WORKS = {"gravity_work": GRAVITY, "boundary_work": BOUNDARIES, "rigid_load_work": RIGID,
@@ -41,6 +43,7 @@ def _boundary_kernel(spec: Spec):
         planes_of: wp.array(dtype=wp.vec3i),
         plane_axis: wp.array(dtype=wp.int32),
         plane_sign: wp.array(dtype=real),
+        plane_kind: wp.array(dtype=wp.int32),
         spacing: real,
         mass: wp.array(dtype=real),
         density: wp.array(dtype=real),
@@ -53,8 +56,9 @@ def _boundary_kernel(spec: Spec):
         pore_water: int,
         ledger: wp.array2d(dtype=wp.float64),
     ):
-        """The work σ̄ (A n)·Δx [J, J/m in 2D] of the tractions the planes a particle lies on put on it,
-        σ̄ the step's mean total stress, n each plane's outward normal, A = V/Δx at tⁿ."""
+        """The work t·Δx [J, J/m in 2D] of the tractions t the planes a particle lies on put on it: σ̄ A n
+        on a fixed, velocity or traction plane, its normal part alone on a slip plane (which holds no
+        shear), σ̄ the step's mean total stress, n the plane's outward normal, A = V/Δx at tⁿ."""
         i = wp.tid()
         a = particle[i]
         s = half * (stress_in[a] + stress_out[a])
@@ -69,10 +73,40 @@ def _boundary_kernel(spec: Spec):
             if planes[c] >= 0:
                 normal = vec3(real(0.0), real(0.0), real(0.0))
                 normal[plane_axis[planes[c]]] = plane_sign[planes[c]]
-                work += area * wp.dot(s * normal, moved)
+                traction = s * normal
+                if plane_kind[planes[c]] == PLANE_SLIP:
+                    traction = wp.dot(traction, normal) * normal
+                work += area * wp.dot(traction, moved)
         ledger[a, BOUNDARIES] += wp.float64(work)
 
     return boundary_work
+
+
+@functools.cache
+def _sum_kernel(spec: Spec):
+    real, vec3, mat33 = spec.real, spec.vec3, spec.mat33
+    psi = strain_energy_function(spec)
+
+    @wp.kernel(enable_backward=False, module="unique")
+    def sum_energies(
+        mass: wp.array(dtype=real),
+        v: wp.array(dtype=vec3),
+        stress: wp.array(dtype=mat33),
+        density: wp.array(dtype=real),
+        material: wp.array(dtype=wp.int32),
+        lam: wp.array(dtype=real),
+        shear: wp.array(dtype=real),
+        ledger: wp.array2d(dtype=wp.float64),
+        sums: wp.array(dtype=wp.float64),
+    ):
+        a = wp.tid()
+        mat = material[a]
+        wp.atomic_add(sums, KINETIC, wp.float64(real(0.5) * mass[a] * wp.dot(v[a], v[a])))
+        wp.atomic_add(sums, STRAIN, wp.float64(mass[a] / density[a] * psi(stress[a], lam[mat], shear[mat])))
+        for c in range(CHANNELS):
+            wp.atomic_add(sums, LEDGER + c, ledger[a, c])
+
+    return sum_energies
 
 
 class EnergyLedger:
@@ -83,6 +117,7 @@ class EnergyLedger:
         self.model = model
         self.ledger = wp.zeros((model.particle_capacity, CHANNELS), dtype=wp.float64, device=model.device)
         self._no_pressure = wp.zeros(1, dtype=wp.float64, device=model.device)
+        self._sums = wp.zeros(LEDGER + CHANNELS, dtype=wp.float64, device=model.device)
 
     def add_boundary_work(self, si: State, so: State, pressure_in=None, pressure_out=None) -> None:
         """The planes' work over the step from ``si`` to ``so`` on the particles lying on them (the
@@ -92,46 +127,49 @@ class EnergyLedger:
             return
         pore = pressure_in is not None
         launch(_boundary_kernel(m.spec), m.constraint_count,
-               [m.constraint_particle, m.constraint_planes, m.plane_axis, m.plane_sign, m.spec.real(m.dx),
+               [m.constraint_particle, m.constraint_planes, m.plane_axis, m.plane_sign, m.plane_kind, m.spec.real(m.dx),
                 m.particle_mass, si.particle_density, si.particle_q, so.particle_q, si.particle_stress,
                 so.particle_stress, pressure_in if pore else self._no_pressure,
                 pressure_out if pore else self._no_pressure, int(pore), self.ledger], m.device)  # fmt: skip
 
-    def totals(self) -> np.ndarray:
-        """(CHANNELS,) sums over the owned particles."""
-        return self.ledger.numpy()[: self.model.particle_count].sum(axis=0)
+    def sums(self, state: State) -> np.ndarray:
+        """(``LEDGER`` + ``CHANNELS``,) sums over the owned particles of ``state``, made on the device and
+        read at once: the kinetic energy ½ m v², the strain energy V ψ(σ′) (ψ the linear law's elastic
+        energy density, :func:`~warpsph.physics.elastic.strain_energy_function`, V = m/ρ), then the
+        ledger's columns [J, J/m in 2D]."""
+        m = self.model
+        self._sums.zero_()
+        launch(_sum_kernel(m.spec), m.particle_count,
+               [m.particle_mass, state.particle_v, state.particle_stress, state.particle_density, m.particle_material,
+                m.material_lambda, m.material_shear, self.ledger, self._sums], m.device)  # fmt: skip
+        return self._sums.numpy().copy()  # on the CPU, numpy() is a view of the device array
 
 
-def stored_energies(model: Model, state: State) -> tuple[float, float]:
-    """(kinetic ½ Σ m v², strain Σ V ψ(σ′)) of the owned particles [J, J/m in 2D], ψ the linear law's
-    elastic energy density (:func:`~warpsph.physics.elastic.strain_energy_density`), V = m/ρ."""
-    n = model.particle_count
-    mass = model.particle_mass.numpy()[:n].astype(np.float64)
-    v = state.particle_v.numpy()[:n].astype(np.float64)
-    stress = state.particle_stress.numpy()[:n].astype(np.float64)
-    volume = mass / state.particle_density.numpy()[:n].astype(np.float64)
-    material = model.particle_material.numpy()[:n]
-    lam = model.material_lambda.numpy().astype(np.float64)[material]
-    shear = model.material_shear.numpy().astype(np.float64)[material]
-    kinetic = 0.5 * float(np.sum(mass * np.einsum("ni,ni->n", v, v)))
-    return kinetic, float(np.sum(volume * strain_energy_density(stress, lam, shear)))
-
-
-def energy_balance(model: Model, state: State, totals: np.ndarray, start: tuple[float, float]) -> dict[str, float]:
-    """The balance since the phase's start [J, J/m in 2D]: kinetic and strain energy (their changes from
-    ``start``), the dissipations and works of the ledger's ``totals``, ``error`` = energy stored and
-    lost less the work given, and ``error_ratio`` = |error| over the energy turned over (the larger of
-    the two sides' magnitudes)."""
-    kinetic, strain = stored_energies(model, state)
-    out = {"kinetic": kinetic - start[0], "strain": strain - start[1]}
-    out.update({name: float(totals[k]) for name, k in DISSIPATIONS.items()})
-    out.update({name: float(totals[k]) for name, k in WORKS.items()})
+def energy_balance(now: np.ndarray, start: np.ndarray) -> dict[str, float]:
+    """The balance between two :meth:`EnergyLedger.sums` [J, J/m in 2D]: the changes of kinetic and strain
+    energy, the dissipations and works booked in between, ``error`` = energy stored and lost less the
+    work given (positive: energy the step made), and ``error_ratio`` = |error| over the energy turned
+    over (the larger of the two sides' magnitudes)."""
+    change = np.asarray(now, dtype=np.float64) - np.asarray(start, dtype=np.float64)
+    out = {"kinetic": float(change[KINETIC]), "strain": float(change[STRAIN])}
+    out.update({name: float(change[LEDGER + k]) for name, k in DISSIPATIONS.items()})
+    out.update({name: float(change[LEDGER + k]) for name, k in WORKS.items()})
     held = [out["kinetic"], out["strain"], *(out[k] for k in DISSIPATIONS)]
     given = [out[k] for k in WORKS]
     out["error"] = sum(held) - sum(given)
     scale = max(sum(map(abs, held)), sum(map(abs, given)))
     out["error_ratio"] = abs(out["error"]) / scale if scale > 0.0 else 0.0
     return out
+
+
+def energy_made(balance: dict[str, float], since: float, start: np.ndarray) -> float:
+    """The energy the steps made since the balance's error was ``since`` [J, J/m in 2D] (0 where they
+    lost energy), as a fraction of the energy in play: the larger of the energy turned over and the
+    energy stored at the start. An unstable mode makes energy from nothing in proportion to the
+    energy it holds, so the fraction over a fixed number of steps stays high as it grows."""
+    scale = max(sum(abs(balance[k]) for k in ("kinetic", "strain", *DISSIPATIONS)),
+                sum(abs(balance[k]) for k in WORKS), float(start[KINETIC] + start[STRAIN]))  # fmt: skip
+    return max(balance["error"] - since, 0.0) / scale if scale > 0.0 else 0.0
 
 
 def balance_warnings(balance: dict[str, float]) -> list[str]:

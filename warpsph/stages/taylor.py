@@ -51,7 +51,7 @@ from warpsph.physics.plasticity import material_struct, plastic_functions
 from warpsph.sph.kernels import smoothing_functions
 from warpsph.sph.operators import operator_functions
 from warpsph.sph.spec import Spec
-from warpsph.stages.energy import GRAVITY, PLASTIC, PORE_WATER, STABILISATION, VISCOUS
+from warpsph.stages.energy import BOUNDARIES, GRAVITY, PLASTIC, PORE_WATER, STABILISATION, VISCOUS
 from warpsph.stages.shifting import shifting_kernels
 from warpsph.stages.surface_water import SurfaceWater, water_against_surface
 
@@ -225,6 +225,8 @@ def taylor_kernels(spec: Spec):
             div -= grad_p  # pⁿ, a field at tⁿ: its gradient stays on that configuration
             total = s - water_on_surface * real(p) * wp.identity(3, dtype=real)
         normal_dir = A * e
+        band = vec3(zero, zero, zero)
+        water = vec3(zero, zero, zero)
         if in_surface_band and wp.length(normal_dir) > zero:
             n = -wp.normalize(normal_dir)
             depth = depth_below_surface(x, start, end, nbr, xs, n, beyond_sources)
@@ -236,15 +238,19 @@ def taylor_kernels(spec: Spec):
                 traction = stress_on_drained_surface(depth, n, At, s, ds0, ds1, ds2, real(p), grad_p) * n
             else:
                 traction -= weight_above(depth, n, unit_weight)
+            load = vec3(zero, zero, zero)
             if wp.static(pore_water):  # the water against the surface (surface_water.py)
                 at = x + depth * n
-                traction -= real(water_against_surface(surface_water, wp.float64(rho_w), wp.float64(at[0]),
-                                                       wp.float64(at[1]), wp.float64(at[2]))) * n  # fmt: skip
+                load = -real(water_against_surface(surface_water, wp.float64(rho_w), wp.float64(at[0]),
+                                                   wp.float64(at[1]), wp.float64(at[2]))) * n  # fmt: skip
             scale = one
             if per_share:
                 scale = one / wp.max(share, share_floor)
-            div += (scale * wp.dot(A * surface_sum, n)) * traction
-        return v, s, G, div, p
+            weight = scale * wp.dot(A * surface_sum, n)
+            band = weight * traction
+            water = weight * load
+            div += band + water
+        return v, s, G, div, p, band, water
 
     @wp.kernel(enable_backward=False, module="unique", name=f"half_step{variant}" if plasticity else None)
     def half_step(
@@ -298,7 +304,8 @@ def taylor_kernels(spec: Spec):
         mat = virt_material[i]
         rho = virt_density[i]
         body_force = skeleton_body_force(gravity, rho, water_density, mat)
-        v, s, G, div, p = fit_fields(x, offsets[i], offsets[i + 1], nbr, real_q, real_mass, real_density, real_v,
+        v, s, G, div, p, _band, _water = fit_fields(x, offsets[i], offsets[i + 1], nbr, real_q, real_mass, real_density,
+                                                    real_v,
                                      real_stress, h, virt_fit_c[i], virt_fit_inv_den[i], virt_fit_minv[i],
                                      virt_fit_e[i], real_fit_c, real_fit_inv_den, real_fit_minv, real_fit_e,
                                      virt_fit_lambda[i] < surface_threshold, real_p, zero,
@@ -390,7 +397,8 @@ def taylor_kernels(spec: Spec):
         mat = material[a]
         rho = density[a]
         body_force = skeleton_body_force(gravity, rho, water_density, mat)
-        v_half, s_half, G, div, p = fit_fields(x, offsets[a], offsets[a + 1], nbr, virt_q, virt_mass, virt_density,
+        v_half, s_half, G, div, p, band, water = fit_fields(x, offsets[a], offsets[a + 1], nbr, virt_q, virt_mass,
+                                                            virt_density,
                                             virt_v_half, virt_stress_half, h, real_fit_c[a], real_fit_inv_den[a],
                                             real_fit_minv[a], real_fit_e[a], virt_fit_c, virt_fit_inv_den,
                                             virt_fit_minv, virt_fit_e, real_fit_lambda[a] < surface_threshold,
@@ -409,6 +417,8 @@ def taylor_kernels(spec: Spec):
             # field): a particle in free flight (ballistic, its stress frozen)
             G = mat33(zero)
             div = vec3(zero, zero, zero)
+            band = vec3(zero, zero, zero)
+            water = vec3(zero, zero, zero)
             v_half = v[a]
         d, spin = split_velocity_gradient(G)
         s = stress[a]
@@ -461,7 +471,12 @@ def taylor_kernels(spec: Spec):
                 d_s += (virt_mass[i] / virt_density[i] * wp.dot(phi_i, dx)) * virt_stress_half[i]
             d_s -= wp.dot(real_fit_e[a], dx) * s_half
         v_force = v[a] + dt * (div / rho + body_force + visc)
-        ledger[a, VISCOUS] -= wp.float64(dt * mass[a] * wp.dot(half * (v[a] + v_force), visc))
+        v_mean = half * (v[a] + v_force)
+        ledger[a, VISCOUS] -= wp.float64(dt * mass[a] * wp.dot(v_mean, visc))
+        # the surface band's term: the water's pressure on the surface is a load; the rest, the weak
+        # traction-free condition (and the weight above the point), a stabilisation of the surface
+        ledger[a, BOUNDARIES] += wp.float64(dt * vol * wp.dot(v_mean, water))
+        ledger[a, STABILISATION] -= wp.float64(dt * vol * wp.dot(v_mean, band))
         v_out[a] = v_force + d_v
         if velocity_filter > zero and not free:
             # the part of the particle's velocity the virtual points do not see: its own mid-step
@@ -484,6 +499,7 @@ def taylor_kernels(spec: Spec):
             q_out[a] = x + dt * wp.cw_mul(v_half, moves) + dx
         density_out[a] = rho * wp.exp(opening - dt * wp.trace(d))
         ledger[a, GRAVITY] += wp.float64(mass[a] * wp.dot(body_force, q_out[a] - x))
+
 
     @wp.kernel(enable_backward=False, module="unique")
     def virtual_continuity(
