@@ -791,7 +791,7 @@ class Run:
         (attributes ``factor`` and ``converged``), the state is then put back to the phase's start and
         checkpointed, so the next phase starts from the unreduced state. With trial workers (``Run``'s
         ``trial_workers`` or ``scheduler``) the trials of a round run at once on Dask, one per worker,
-        each from the phase's start checkpoint (:func:`safety_trial`); their steps count as if run in
+        each from the phase's start checkpoint (:func:`remote_safety_trial`); their steps count as if run in
         turn."""
         phase, record = self.phase, self.records[-1]
         with contextlib.ExitStack() as stack:
