@@ -44,4 +44,3 @@ class DeviceError(InputError):
 
 class SceneWarning(UserWarning):
     """A scene value that is valid but implausible for soil and rock (mostly a unit typed wrong)."""
-

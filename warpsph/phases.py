@@ -67,7 +67,7 @@ class FactorSearch:
 
     def __init__(self, tolerance: float, largest: float, state: dict | None = None, width: int = 1):
         self.tolerance, self.largest, self.width = tolerance, largest, max(1, width)
-        self.state = state or {"stood": [], "failed": [], "factors": self._grown(1.0, include=True)}
+        self.state = state or {"stood": [], "failed": [], "factors": self._stepped(1.0, up=True, first=0)}
 
     @property
     def factors(self) -> list[float]:
@@ -100,18 +100,18 @@ class FactorSearch:
         """The smallest factor that failed."""
         return min(self.state["failed"]) if self.state["failed"] else None
 
-    def _grown(self, base: float, include: bool = False) -> list[float]:
-        first = 0 if include else 1
-        return sorted({min(base * self.STEP**k, self.largest) for k in range(first, first + self.width)})
+    def _stepped(self, base: float, up: bool, first: int = 1) -> list[float]:
+        """``width`` factors base·STEPᵏ (``up``) or base/STEPᵏ from k = ``first``, within [``SMALLEST``,
+        ``largest``]."""
+        return sorted({min(max(base * self.STEP**k if up else base / self.STEP**k, self.SMALLEST), self.largest)
+                       for k in range(first, first + self.width)})  # fmt: skip
 
     def _next_round(self) -> list[float]:
         low, high = self.low, self.high
         if high is None:
-            return [] if low >= self.largest else self._grown(low)
+            return [] if low >= self.largest else self._stepped(low, up=True)
         if low is None:
-            if high <= self.SMALLEST:
-                return []
-            return sorted({max(high / self.STEP**k, self.SMALLEST) for k in range(1, self.width + 1)})
+            return [] if high <= self.SMALLEST else self._stepped(high, up=False)
         if high - low <= 2.0 * self.tolerance:
             return []
         return [low + (high - low) * i / (self.width + 1) for i in range(1, self.width + 1)]

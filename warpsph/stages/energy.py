@@ -26,6 +26,8 @@ DISSIPATIONS = {"plastic_dissipation": PLASTIC, "viscous_dissipation": VISCOUS,
                 "stabilisation_dissipation": STABILISATION, "damping_dissipation": DAMPING}  # fmt: skip
 WORKS = {"gravity_work": GRAVITY, "boundary_work": BOUNDARIES, "rigid_load_work": RIGID,
          "pore_water_work": PORE_WATER}  # fmt: skip
+HELD = ("kinetic", "strain", *DISSIPATIONS)
+"""The balance's entries of energy stored (their changes) and lost."""
 STABILISATION_WARNING = 0.1
 """Stabilisation energy above this fraction of the strain energy's change is reported."""
 BALANCE_WARNING = 0.01
@@ -154,12 +156,16 @@ def energy_balance(now: np.ndarray, start: np.ndarray) -> dict[str, float]:
     out = {"kinetic": float(change[KINETIC]), "strain": float(change[STRAIN])}
     out.update({name: float(change[LEDGER + k]) for name, k in DISSIPATIONS.items()})
     out.update({name: float(change[LEDGER + k]) for name, k in WORKS.items()})
-    held = [out["kinetic"], out["strain"], *(out[k] for k in DISSIPATIONS)]
-    given = [out[k] for k in WORKS]
-    out["error"] = sum(held) - sum(given)
-    scale = max(sum(map(abs, held)), sum(map(abs, given)))
+    out["error"] = sum(out[k] for k in HELD) - sum(out[k] for k in WORKS)
+    scale = turned_over(out)
     out["error_ratio"] = abs(out["error"]) / scale if scale > 0.0 else 0.0
     return out
+
+
+def turned_over(balance: dict[str, float]) -> float:
+    """The energy a balance turned over [J, J/m in 2D]: the larger of the magnitudes of what was stored
+    and lost and of what was given."""
+    return max(sum(abs(balance[k]) for k in HELD), sum(abs(balance[k]) for k in WORKS))
 
 
 def energy_made(balance: dict[str, float], since: float, start: np.ndarray) -> float:
@@ -167,8 +173,7 @@ def energy_made(balance: dict[str, float], since: float, start: np.ndarray) -> f
     lost energy), as a fraction of the energy in play: the larger of the energy turned over and the
     energy stored at the start. An unstable mode makes energy from nothing in proportion to the
     energy it holds, so the fraction over a fixed number of steps stays high as it grows."""
-    scale = max(sum(abs(balance[k]) for k in ("kinetic", "strain", *DISSIPATIONS)),
-                sum(abs(balance[k]) for k in WORKS), float(start[KINETIC] + start[STRAIN]))  # fmt: skip
+    scale = max(turned_over(balance), float(start[KINETIC] + start[STRAIN]))
     return max(balance["error"] - since, 0.0) / scale if scale > 0.0 else 0.0
 
 
