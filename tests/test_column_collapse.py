@@ -114,8 +114,7 @@ def test_collapse_stays_at_rest_to_the_end(collapse):
 @pytest.mark.slow
 @pytest.mark.xfail(strict=True, reason=(
     "largest speed 0.052 m/s over the last 0.3 s, just above 0.05 (runout 2.20 at 2 s, 95th percentile "
-    "0.0102 m/s); the criterion is marginal here: before the midpoint divergence 0.028 m/s at Courant 0.5 "
-    "but 0.31 m/s at Courant 0.49 (measured, docs/method.md)"))
+    "0.0102 m/s); the criterion is marginal here"))
 def test_collapse_at_half_the_spacing_stays_at_rest_to_the_end(tmp_path_factory):
     """Δx = 0.0125 m (861 particles, about 100 s on one core): nothing is thrown out (measured: runout
     2.20 at 2 s)."""

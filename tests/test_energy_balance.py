@@ -95,7 +95,7 @@ def test_a_run_writes_its_balance_and_resumes_it(tmp_path):
 def test_the_guard_stops_steps_that_make_energy(tmp_path):
     """The wave column at Courant 2, beyond the integrator's stability limit (the scene is changed after
     validation, which refuses it): its odd-even mode grows from the first steps; steps 11-20 make
-    61 % of the energy in play, 18 times what steps 1-10 made, and the guard stops the run at step 20,
+    74 % of the energy in play, more than twice what steps 1-10 made, and the guard stops the run at step 20,
     its stress still below
     4 × the load, where the speed bound alone let it run to step 62 and 17.5 MPa; the checkpoint
     kept is from before. The stable run at Courant 1.5 makes none."""

@@ -105,8 +105,7 @@ def against_the_closed_form(results, y, p):
     return l2, clay.max(), jump, exact_jump
 
 
-@expected_failure("the clay's row next to the sand reads 0.975 p₀ (2.5 % off; 0.972 before the roughness damping's "
-                  "low-permeability weight; the sand is within 0.99 % L2) and "
+@expected_failure("the clay's row next to the sand reads 0.975 p₀ (2.5 % off; the sand is within 0.99 % L2) and "
                   "the jump across the interface is -0.348 p₀ for -0.393: a splitting error of the projection's "
                   "Δt/ρ part at the kink of the pressure increment, as C² (0.910 at C = 0.9), not Δx (0.971 and "
                   "0.969 at Δx = 0.1 and 0.05 m); the jump's error is the sand's base row, 2 % high, first order "

@@ -57,7 +57,7 @@ def test_permeable_enough_free_surface_is_stable(free_surface, hydraulic_conduct
 def test_less_permeable_free_surface_is_stable(free_surface, hydraulic_conductivity):
     """At 1e-8 m/s (k ρ/Δt = 4.7e-6) a drained surface whose band pushes with the effective stress of its
     own particles keeps a slow real eigenvalue, 1.0000039, stress and pore pressure over the whole
-    column (1.000122 without the damping's low-permeability weight; measured, docs/method.md)."""
+    column."""
     assert spectral_radius(hydraulic_conductivity, free_surface) <= 1.0 + 1e-9
 
 

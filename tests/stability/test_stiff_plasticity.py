@@ -14,8 +14,8 @@ not collapse onto one particle row.
 
 The band forms abruptly here: the shear stress drops from about 9.5 kPa towards the residual's 5 kPa
 within about 20 ms, and the unloading waves, doubled on reflection at the base, take it down to
-about 0 (measured outside the suite: smallest τ −0.14 kPa at Δx = 0.02 m, 0 at 0.01 m, at
-t = 0.10–0.17 s); the band then slips at several V. That is elastic dynamics, not instability, so
+about 0 (smallest τ −0.14 kPa at Δx = 0.02 m, 0 at 0.01 m, at t = 0.10–0.17 s); the band then
+slips at several V. That is elastic dynamics, not instability, so
 the speed bound is the most two superposed elastic waves can carry while |τ| ≤ c outside the band.
 
 Criteria, checked every 20 steps to t = 0.2 s (top displaced 9.5 mm):
@@ -30,10 +30,8 @@ Criteria, checked every 20 steps to t = 0.2 s (top displaced 9.5 mm):
   peak within 2 Δx of the imperfection's centre, its core softened to the residual.
 
 Longer (slow): the same criteria to t = 1 s at Δx = 0.01 m; they hold (the docstring of the test
-has the numbers). The first version of this run blew up between t = 0.50 and 0.55 s: the band's slip
-had moved rows two apart 16.9 mm from each other along x, and in ``dim = 1`` the neighbour search,
-kernel and linear fit take the full 3D offset (the pair, 20 mm apart along y, was 26.2 mm apart
-for them, beyond the support 2h = 26 mm). Points now move only along the axes a scene uses
+has the numbers). The band's slip moves rows apart along x, and the neighbour search, kernel and
+linear fit take the full 3D offset, so points move only along the axes a scene uses
 (``test_1d_points_do_not_move_along_x``).
 """
 
@@ -90,8 +88,8 @@ def test_stiff_softening_band_over_a_longer_run():
 
 
 def test_1d_points_do_not_move_along_x():
-    """Why points move only along the axes a scene uses, isolated (measured outside the suite: rows
-    offset along x by 0.3 Δx change the 1D wave column's σ_yy by 7.4e-2 of its peak in 300 steps,
+    """Why points move only along the axes a scene uses, isolated (rows offset along x by 0.3 Δx
+    change the 1D wave column's σ_yy by 7.4e-2 of its peak in 300 steps,
     because the neighbour search, kernel and fit use the full 3D offset): a 1D body's points move
     along y only, however fast it shears along x."""
     model, state, _ = march(shear_layer(0.02, STIFF), 200)

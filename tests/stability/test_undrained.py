@@ -84,7 +84,7 @@ def test_sealed_column():
           f"{ratio[interior].max():.4g}] below the top two rows (face {face:.3g}, second row {second:.3g}); "
           f"lower half within {error[y <= HEIGHT / 2].max() / undrained_settlement():.2e} S_u")
     assert np.all(np.abs(ratio[interior] - 1.0) < 0.02)
-    assert abs(face - second) < 0.02  # the face follows its neighbours (it kept 0 before)
+    assert abs(face - second) < 0.02  # the face follows its neighbours
     assert error[y <= HEIGHT / 2].max() < 0.01 * undrained_settlement()
     assert error.max() < SIGMA0 * dx / (2 * e_oed)
 
@@ -106,10 +106,8 @@ def block(material, side: str, load: float, ramp: float = 0.0) -> Scene:
                                             ("free", soil(hydraulic_conductivity=1e-6, water_bulk_modulus=2.2e9))],
                          ids=["undrained_slip_side", "k_1e-6_free_side"])
 def test_loaded_sealed_face_step_is_linearly_stable(side, material):
-    """One step about rest of the block with its loaded impermeable top: spectral radius ≤ 1 + 1e-5.
-    Before the roughness damping next to such faces (docs/method.md, *Loaded impermeable faces*) a
-    mode at the top rows near the axis grew without oscillating, σ′ and p rising together with the
-    total stress unchanged and v_y odd-even in depth: 1.0018 and 1.0011."""
+    """One step about rest of the block with its loaded impermeable top: spectral radius ≤ 1 + 1e-5,
+    which the roughness damping next to such faces keeps (docs/method.md, *Loaded impermeable faces*)."""
     radius = float(np.abs(np.linalg.eigvals(step_jacobian(block(material, side, 0.0)))).max())
     print(f"\nblock with a loaded sealed top, {side} side, k_h = {material.hydraulic_conductivity:g} m/s: spectral "
           f"radius of a step {radius:.7f}")

@@ -1,45 +1,14 @@
-"""Two-step Taylor-SPH with real particles and virtual stress points (method.md §4).
+"""Two-step Taylor-SPH with real particles and virtual stress points (docs/method.md, *One step*).
 
 Half step, at the virtual points i, from the real particles' values Φⁿ = (v, σ′):
     Φ_i^{n+½} = Φ_iⁿ + Δt/2 (∇·σ′/ρ + b,  D:d) + ΔS(Δt/2)
 Full step, at the real particles a, from the virtual points' Φ^{n+½}:
     Φ_a^{n+1} = Φ_aⁿ + Δt (∇·σ′/ρ + b,  D:d) + ΔS(Δt)
-where values and velocity gradients come from the linear fit of :mod:`warpsph.sph.operators` (fit
-data from :mod:`warpsph.stages.corrections`), and ΔS is the Runge–Kutta increment of the Jaumann
-source. The stress divergence is the fit's own (exact for linear stress fields). In the surface
-band (points whose smallest correction eigenvalue is below the scene's threshold) it gains the
-weak-form surface term (σ̄n)(S·n), S = Σ_b V_b (ψ_b e_b − φ_b) with the weights of the point in
-the sources' fits: the surface force that the negative adjoint of the sources' gradient operators
-(an energy-conserving divergence) gives a uniform stress, kept to its normal-traction part so that
-large stresses along a surface do not amplify particle-disorder noise; at a drained free surface of
-saturated soil σ̄ is the total stress extrapolated to the surface, at a dry or impermeable one the
-point's own traction less the weight of the soil between it and the surface (without large
-deformation; both zero under a geostatic layer, where the point's own stress one row in is not;
-docs/method.md). In the full step that force
-is divided by the particle's share s_a = Σ_i V_i ψ_i(a) of the virtual points' fits (about 0.6 on a
-flat face, 1 inside; floored at ``SURFACE_SHARE_FLOOR``; not with large deformation): the adjoint's
-force acts on the part of the body the particle's shape function covers, the fit's divergence per
-unit of the particle's whole volume, and without the division a thin free plate gained energy
-(docs/method.md, "Choice — the surface term per unit of the particle's share"). Tried and rejected
-(see docs/method.md): projecting the normal traction out of surface stresses (grew without bound in
-a free block) and the full adjoint divergence in the band (broke down under 1 MPa of compression).
-With the plasticity effect the source also relaxes the stress (Perzyna, method.md "Viscoplasticity"),
-applied after the flux (sequential splitting): σ* = Φⁿ + Δt Dᵉ:d, then ΔS is integrated from σ* and
-the equivalent plastic strain ε̄ (fitted from the reals at the virtual points, the real particle's
-own in the full step) advances by the source's Δε̄; the dry elastic variant is unchanged.
-Virtual points move with their half-step velocity, real particles with the half-step velocity
-fitted at them or, with ``simulation.particle_velocity = "own"``, with their own (vⁿ + vⁿ⁺¹)/2 (then
-a particle whose fit falls back to Shepard is in free flight); with particle shifting a real particle
-also moves by its shift and takes its fields there (:mod:`warpsph.stages.shifting`); densities
-follow continuity (a virtual point's by default with the divergence fitted at it, with
-``simulation.virtual_density = "real_motion"`` with the reals' motion over the step fitted at it:
-``virtual_continuity``, docs/method.md "Virtual densities"). The half step fits on the configuration
-at tⁿ; the full step's gradients of Φ^{n+½} (velocity gradient, stress divergence, surface normal)
-are mapped onto the step's midpoint configuration x + (Δt/2) v^{n+½}, where Φ^{n+½} lives
-(docs/method.md). Optional Monaghan
-artificial viscosity acts between real particles and virtual points in the full step, and the
-optional stress filter removes the part of a real particle's stress its virtual neighbours do not
-see (an odd-even null mode of the real → virtual fit).
+with values and gradients from the corrected linear fit (:mod:`warpsph.sph.operators`), ΔS the
+Runge–Kutta increment of the Jaumann and Perzyna sources, and, in the free-surface band, the weak
+surface term of the traction (docs/method.md, *Boundaries*, "Choice — the surface term per unit of
+the particle's share" and *The weight of the soil*). The kernels also move the points, advance the
+densities by continuity and book the step's energy (docs/method.md, *Energy balance*).
 """
 
 import functools
