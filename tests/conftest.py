@@ -56,39 +56,6 @@ def factor_of_safety_falls(scene_path: Path, out: Path, before: str, after: str)
     return warpsph.load_results(out / "results.h5"), first["criterion"], second["criterion"]
 
 
-def undrained_clay(name: str, vertices, dx: float, phases, cohesion: float, density: float = 2000.0):
-    """A scene of undrained clay in total stress (dry, von Mises with c_u = ``cohesion`` [Pa], ρ = ``density``
-    [kg/m³], E = 20 MPa, ν = 0.3, plasticity on) filling the polygon ``vertices`` [m] under gravity: a fixed
-    base at y = 0, slip sides at the polygon's smallest and largest x, the given ``phases``; frames hold
-    velocity, stress and displacement (no USD or XDMF)."""
-    import dataclasses
-
-    from warpsph import Body, Boundary, Material, Scene, Simulation
-
-    xs = [x for x, _ in vertices]
-    clay = Material("clay", model="viscoplastic", density=density, youngs_modulus=2e7, poisson_ratio=0.3,
-                    yield_function="von_mises", cohesion=cohesion)  # fmt: skip
-    scene = Scene(name=name, simulation=Simulation(dim=2, dx=dx, end_time=1.0, gravity=(0.0, -9.81, 0.0)),
-                  materials={"clay": clay}, bodies=[Body("ground", "clay", shape="polygon", vertices=vertices)],
-                  boundaries=[Boundary("base", "fixed", "y", 0.0, "min"), Boundary("left", "slip", "x", min(xs), "min"),
-                              Boundary("right", "slip", "x", max(xs), "max")],
-                  phases=phases)  # fmt: skip
-    scene.effects = dataclasses.replace(scene.effects, plasticity=True)
-    scene.output.usd = scene.output.xdmf = False
-    scene.output.frame_interval = 1e3
-    scene.output.fields = ["velocity", "stress", "displacement"]
-    return scene.validate()
-
-
-def strength_reduction_phases(max_steps: int, factor_tolerance: float):
-    """The K0 procedure, gravity loading to equilibrium, then a safety phase whose trials are capped at
-    ``max_steps`` and searched to ± ``factor_tolerance``."""
-    from warpsph.scene import Phase
-
-    return [Phase("initial", kind="k0"), Phase("gravity", kind="equilibrium"),
-            Phase("safety", kind="safety", max_steps=max_steps, factor_tolerance=factor_tolerance)]  # fmt: skip
-
-
 def factor_search(out: Path, tolerance: float):
     """Check the safety phase that ends the run in ``out``: it converged, its factor of safety lies between
     the strongest trial that stood and the weakest that failed, that bracket is at most 2 ``tolerance``

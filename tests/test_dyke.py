@@ -1,7 +1,7 @@
 """The shipped dyke in a flood (scenes/dyke_rising_water.toml), through its phases up to the factor
 of safety at steady high water: the flood's water seeps under and into the dyke, raising the pore
 pressure beneath the landward slope, and the factor of safety falls (docs/scenes.md, *Groundwater
-flow*)."""
+flow*), with the numbers docs/tutorials/dyke_rising_river.md quotes."""
 
 from __future__ import annotations
 
@@ -11,12 +11,14 @@ import numpy as np
 import pytest
 from conftest import factor_of_safety_falls
 
+TUTORIAL = Path(__file__).resolve().parent.parent / "docs" / "tutorials" / "dyke_rising_river.md"
+
 SCENE = Path(__file__).resolve().parent.parent / "scenes" / "dyke_rising_water.toml"
 
 
 @pytest.mark.slow
 def test_a_flood_lowers_the_dykes_factor_of_safety(tmp_path):
-    results, _, _ = factor_of_safety_falls(SCENE, tmp_path, "low_water_safety", "high_water_safety")
+    results, low, high = factor_of_safety_falls(SCENE, tmp_path, "low_water_safety", "high_water_safety")
     names = [phase["name"] for phase in results.phases]
     under_slope = []
     for name in ("low_water_seepage", "flood", "high_water_seepage"):
@@ -30,3 +32,11 @@ def test_a_flood_lowers_the_dykes_factor_of_safety(tmp_path):
     stored = results.series("storage_rate")[1]
     out = sum(flows.values())
     np.testing.assert_allclose(-out[-1], stored[-1], rtol=1e-5, atol=1e-9 * abs(flows["discharge_river"][-1]))
+    page = TUTORIAL.read_text()
+    flood = next(phase for phase in results.phases if phase["name"] == "flood_safety")["criterion"]
+    for factor in (low, flood, high):
+        assert f"factor of safety {factor:.3f} ± 0.02" in page
+    assert (round(low, 2), round(flood, 2), round(high, 2)) == (2.27, 2.24, 2.14)
+    for name, p in zip(("low_water_seepage", "flood", "high_water_seepage"), under_slope):
+        assert f"{name}: pore pressure under the landward slope {p / 1e3:.2f} kPa" in page
+    assert f"river inflow at steady high water {-flows['discharge_river'][-1] * 86400:.2f} m³/day" in page

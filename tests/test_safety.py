@@ -18,7 +18,9 @@ import numpy as np
 import pytest
 
 import warpsph
-from conftest import factor_search, strength_reduction_phases, undrained_clay
+from conftest import factor_search
+
+from warpsph.validation.safety import strength_reduction_phases, undrained_clay
 from warpsph import Material, Probe, Region, Scene, SceneError
 from warpsph.phases import FactorSearch, reduced_strength
 from warpsph.scene import Phase

@@ -24,15 +24,10 @@ import numpy as np
 import pytest
 
 import warpsph
-from conftest import factor_search, strength_reduction_phases, undrained_clay
+from conftest import factor_search
 
-G = 9.81
-CU, RHO, H = 12e3, 2000.0, 2.0
-TAYLOR = CU / (0.191 * RHO * G * H)
-"""The factor of safety by Taylor's chart, 1.601."""
-BASE, TOE, WIDTH = 1.0, 2.0, 8.0  # the toe's level, its x and the ground's width [m]
-CREST = TOE + H / math.tan(math.radians(60.0))
-SLOPE = [(0, 0), (WIDTH, 0), (WIDTH, BASE + H), (CREST, BASE + H), (TOE, BASE), (0, BASE)]
+from warpsph.validation.safety import (BASE, CREST, CU, RHO, SLOPE, TAYLOR, TOE, H, strength_reduction_phases,
+                                      undrained_clay)  # fmt: skip
 
 
 def taylor_slope(tmp_path, dx: float, max_steps: int, tolerance: float) -> float:

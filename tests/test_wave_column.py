@@ -12,22 +12,10 @@ import math
 import numpy as np
 import pytest
 
-from warpsph.scene_toml import load_scene
+from warpsph.validation.waves import wave_column
 from warpsph.verification import sample_column_stress, step_wave_metrics
 
 SIGMA0, HEIGHT = 5000.0, 10.0
-
-
-def column(scenes_dir, dim=2, **simulation):
-    """The shipped wave column; in 1D without its side walls; simulation keys overridden."""
-    scene = load_scene(scenes_dir / "wave_column.toml")
-    scene.simulation.dim = dim
-    for key, value in simulation.items():
-        setattr(scene.simulation, key, value)
-    if dim == 1:
-        scene.boundaries = [b for b in scene.boundaries if b.axis == "y"]
-        scene.probes = [p for p in scene.probes if p.kind != "point"]
-    return scene.validate()
 
 
 def metrics(scene, t_end=0.05):
@@ -37,8 +25,8 @@ def metrics(scene, t_end=0.05):
 
 
 @pytest.mark.parametrize("dim", [1, 2])
-def test_front_speed_and_plateau(scenes_dir, dim, record_property):
-    m, c = metrics(column(scenes_dir, dim))
+def test_front_speed_and_plateau(dim, record_property):
+    m, c = metrics(wave_column(dim))
     print(f"\n{dim}D two-set: front speed {m.front_speed:.2f} m/s (exact {c:.2f}), plateau {m.plateau_mean:.4f}, "
           f"overshoot {100 * m.overshoot:.1f} %, L2 {m.l2_error:.4f}")
     record_property("overshoot", m.overshoot)
@@ -48,13 +36,13 @@ def test_front_speed_and_plateau(scenes_dir, dim, record_property):
     assert 0.1 < m.overshoot < 0.4
 
 
-def test_two_set_against_collocated(scenes_dir, record_property):
+def test_two_set_against_collocated(record_property):
     """Both schemes on the same 1D wave; errors reported, the two-set scheme's checked."""
     results = {}
     for label, sim in {"two_set": {}, "collocated": {"scheme": "collocated"},
                        "collocated, alpha 0.2": {"scheme": "collocated", "artificial_viscosity": 0.2},
                        "two_set, alpha 0.2": {"artificial_viscosity": 0.2}}.items():
-        m, c = metrics(column(scenes_dir, 1, **sim))
+        m, c = metrics(wave_column(1, **sim))
         results[label] = m
         record_property(f"{label} L2", m.l2_error)
         print(f"\n{label:>22}: speed error {100 * (m.front_speed / c - 1):+.3f} %, plateau {m.plateau_mean:.4f}, "
@@ -73,10 +61,10 @@ def test_two_set_against_collocated(scenes_dir, record_property):
 
 
 @pytest.mark.slow
-def test_bounded_after_100_transits(scenes_dir):
+def test_bounded_after_100_transits():
     """1D column, 100 transits (about 20 000 steps): stress stays bounded by the reflected doubling
     plus the overshoot, velocities stay finite and bounded."""
-    scene = column(scenes_dir, 1)
+    scene = wave_column(1)
     c = scene.materials["soil"].p_wave_speed
     t_end = 100 * HEIGHT / c
     times, profiles = sample_column_stress(scene, t_end, n_frames=400)
@@ -87,12 +75,12 @@ def test_bounded_after_100_transits(scenes_dir):
 
 
 @pytest.mark.slow
-def test_convergence_of_l2_error(scenes_dir):
+def test_convergence_of_l2_error():
     """L2 error of −σ_yy/σ₀ against the exact step under refinement (a discontinuity: order ≤ 1/2
     expected in L2), printed with the observed orders."""
     rows = []
     for dx in (0.2, 0.1, 0.05, 0.025):
-        m, c = metrics(column(scenes_dir, 1, dx=dx))
+        m, c = metrics(wave_column(1, dx=dx))
         rows.append((dx, m.l2_error, m.front_speed / c - 1.0, m.plateau_mean))
     print("\n    dx      L2     order  speed err  plateau")
     for i, (dx, e, s, p) in enumerate(rows):

@@ -608,7 +608,7 @@ class Scene:
 
     def validate(self) -> "Scene":
         """Check the scene; raise :class:`warpsph.errors.SceneError` naming the key path."""
-        from warpsph.validation import validate_scene
+        from warpsph.scene_check import validate_scene
 
         validate_scene(self)
         return self

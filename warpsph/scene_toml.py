@@ -22,7 +22,7 @@ from pathlib import Path
 
 from warpsph.errors import SceneError
 from warpsph.scene import Scene
-from warpsph.validation import (
+from warpsph.scene_check import (
     convert,
     field_hints,
     is_finite_field,

@@ -18,10 +18,11 @@ import functools
 
 import numpy as np
 import pytest
-from stability_tools import SCENES, SCHEMES, energy, largest_rise, expected_failure, march, scheme_params
-from test_wave_column import HEIGHT, SIGMA0, column
+from stability_tools import SCHEMES, energy, largest_rise, expected_failure, march, scheme_params
+from test_wave_column import HEIGHT, SIGMA0
 
 from warpsph.scene import Body, Boundary
+from warpsph.validation.waves import wave_column
 
 COURANT = 0.9
 EXACT_PEAK = {"step_load": 2.0, "released_prestress": 1.0}
@@ -29,7 +30,7 @@ EXACT_PEAK = {"step_load": 2.0, "released_prestress": 1.0}
 
 
 def step_load(scheme: str):
-    return column(SCENES, 1, courant=COURANT, scheme=scheme)
+    return wave_column(1, courant=COURANT, scheme=scheme)
 
 
 def released_prestress(scheme: str):
