@@ -59,9 +59,7 @@ def test_free_block_creates_no_energy():
 def test_block_under_gravity_stays_bounded():
     """Sampled every 5 steps over 4 000 (0.58 s, 200 transits of the height). Measured (docs/method.md):
     the top's mean downward speed at most 0.0232 m/s against g H / c = 0.0283, and the largest speed
-    0.0459 m/s at the corners, whose peak is not converged and rises as the spacing falls (with the
-    particles' own traction on the surface instead of the weight of the soil: 0.0247 m/s, 0.0262 at
-    Δx = 0.05 m; the largest 0.0487 m/s = 1.72 g H / c, 0.0516 at Δx = 0.05 m)."""
+    0.0459 m/s at the corners, whose peak is not converged and rises as the spacing falls."""
     height = 1.0
     scene = Scene(simulation=Simulation(dim=2, dx=0.1, gravity=(0, -9.81, 0)), materials=SOIL,
                   bodies=[Body("block", "soil", min=(0, 0, 0), max=(2, height, 0))],
