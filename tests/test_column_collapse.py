@@ -26,6 +26,7 @@ import pytest
 from warpsph.io import load_results
 from warpsph.runner import Run
 from warpsph.scene_toml import load_scene
+from warpsph.validation.failure import late_speeds
 
 SCENE = Path(__file__).resolve().parent.parent / "scenes" / "column_collapse.toml"
 L0, H0, G = 0.25, 0.5, 9.81
@@ -71,12 +72,6 @@ def test_collapse_flows_at_constant_volume_on_its_floor(collapse):
     print(f"\nvolume change {collapse.volume_change:+.4f}")
     assert abs(collapse.volume_change) < 0.02
     assert first["plastic_strain"].max() == 0.0
-
-
-def late_speeds(results, start: float, end: float) -> np.ndarray:
-    """Particle speeds [m/s] of the frames written in [start, end] [s]."""
-    frames = [k for k, t in enumerate(results.times) if start - 1e-6 <= t <= end + 1e-6]
-    return np.array([np.linalg.norm(results.frame(k)["velocity"], axis=1) for k in frames])
 
 
 def test_bulk_comes_to_rest_at_the_measured_runout(collapse):

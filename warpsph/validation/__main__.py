@@ -9,14 +9,15 @@ from pathlib import Path
 
 def main(argv: list[str] | None = None) -> int:
     from warpsph.validation import CASES, write_manual
+    from warpsph.validation.report import RUNS
 
     parser = argparse.ArgumentParser(prog="python -m warpsph.validation", description=__doc__)
     parser.add_argument("--out", type=Path, default=Path("docs/validation"),
                         help="directory of index.md, results.json and the figures (default: docs/validation)")
     parser.add_argument("--only", nargs="+", metavar="CASE", choices=list(CASES),
                         help=f"run these cases only (default: all): {', '.join(CASES)}")
-    parser.add_argument("--runs", type=Path, default=Path("runs/validation"),
-                        help="directory of the cases' runs, one per case (default: runs/validation)")
+    parser.add_argument("--runs", type=Path, default=RUNS,
+                        help=f"directory of the cases' runs, one per case (default: {RUNS})")
     parser.add_argument("--device", default="cpu", help="Warp device of every run (default: cpu)")
     parser.add_argument("--quick", action="store_true",
                         help="coarsest resolutions only: checks the command, not the method")

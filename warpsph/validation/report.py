@@ -13,6 +13,8 @@ from dataclasses import asdict, dataclass, field
 from pathlib import Path
 
 COMMAND = "python -m warpsph.validation"
+RUNS = Path("runs/validation")
+"""Where the cases' runs write their results by default, one directory per case."""
 SCENES = Path(__file__).resolve().parents[2] / "scenes"
 """The shipped scenes, beside the package in a source checkout."""
 
@@ -73,6 +75,15 @@ class CaseResult:
     seconds: float
     command: str
     checks: list[dict] = field(default_factory=list)
+    """The outcome's checks as records, each with whether it holds."""
+
+    @property
+    def held(self) -> int:
+        return sum(c["holds"] for c in self.checks)
+
+    @property
+    def anchor(self) -> str:
+        return self.name.replace("_", "-")
 
 
 @dataclass
@@ -83,7 +94,7 @@ class Context:
     out: Path
     device: str = "cpu"
     quick: bool = False
-    runs: Path = Path("runs/validation")
+    runs: Path = RUNS
     """Where the cases' runs write their results, one directory per case (not the manual's directory)."""
 
     def save(self, fig, name: str) -> str:
@@ -171,7 +182,7 @@ def _machine() -> str:
 
 
 def write_manual(out: Path, names: list[str] | None = None, device: str = "cpu", quick: bool = False,
-                 runs: Path = Path("runs/validation"), echo: Callable[[str], None] = print) -> list[CaseResult]:
+                 runs: Path = RUNS, echo: Callable[[str], None] = print) -> list[CaseResult]:
     """Run the cases ``names`` (all by default), their runs' results in ``runs``, and write their figures,
     ``results.json`` and ``index.md`` into ``out``; the results."""
     out = Path(out)
@@ -181,8 +192,7 @@ def write_manual(out: Path, names: list[str] | None = None, device: str = "cpu",
     for name in names or list(CASES):
         echo(f"{name}: {CASES[name].title} ...")
         result = run_case(CASES[name], context)
-        held = sum(c["holds"] for c in result.checks)
-        echo(f"{name}: {held} of {len(result.checks)} checks hold ({result.seconds:.0f} s)")
+        echo(f"{name}: {result.held} of {len(result.checks)} checks hold ({result.seconds:.0f} s)")
         results.append(result)
     _write_index(out, results, device, quick)
     (out / "results.json").write_text(json.dumps(
@@ -211,10 +221,9 @@ def _write_index(out: Path, results: list[CaseResult], device: str, quick: bool)
         "|---|---|---:|",
     ]  # fmt: skip
     for r in results:
-        held = sum(c["holds"] for c in r.checks)
-        lines.append(f"| [{r.title}](#{r.name.replace('_', '-')}) | {held} of {len(r.checks)} | {r.seconds:.0f} s |")
+        lines.append(f"| [{r.title}](#{r.anchor}) | {r.held} of {len(r.checks)} | {r.seconds:.0f} s |")
     for r in results:
-        lines += ["", f"## {r.title} {{#{r.name.replace('_', '-')}}}", "", r.outcome.summary, "",
+        lines += ["", f"## {r.title} {{#{r.anchor}}}", "", r.outcome.summary, "",
                   f"![{r.title}]({r.outcome.figure})", "", *_check_rows(r.outcome.checks), "",
                   f"*{r.outcome.resolution}; {r.seconds:.0f} s on `{device}`; `{r.command}`*"]  # fmt: skip
     (out / "index.md").write_text("\n".join(lines) + "\n")

@@ -28,7 +28,8 @@ def observed_orders(spacings, errors) -> list[float]:
 def wave_column_case(context: Context) -> Outcome:
     from warpsph.verification import column_stress_run, step_wave_metrics
 
-    sigma0 = -shipped_scene("wave_column").loads[0].traction[1]
+    scene = wave_column(2)
+    sigma0 = -scene.loads[0].traction[1]
     height, t_end = 10.0, 0.05
 
     def measure(scene):
@@ -37,7 +38,7 @@ def wave_column_case(context: Context) -> Outcome:
         m = step_wave_metrics(run.times, run.samples, height=height, speed=c, sigma0=sigma0, dx=scene.simulation.dx)
         return m, c, run
 
-    shown, c, run = measure(wave_column(2))
+    shown, c, run = measure(scene)
     spacings = [0.2, 0.1] if context.quick else [0.2, 0.1, 0.05, 0.025]
     errors = [measure(wave_column(1, dx=dx))[0].l2_error for dx in spacings]
     orders = observed_orders(spacings, errors)
@@ -69,5 +70,5 @@ def wave_column_case(context: Context) -> Outcome:
         Check("plateau −σ_yy/σ₀", shown.plateau_mean, 1.0, 0.03, source="closed form"),
         Check("order of the L2 error", min(orders), 0.5, 0.5, relative=False, source="0 to ½ for a step"),
     ]
-    resolution = f"2D: Δx = {wave_column(2).simulation.dx:g} m, {n} particles, {run.steps} steps; 1D: Δx as plotted"
+    resolution = f"2D: Δx = {scene.simulation.dx:g} m, {n} particles, {run.steps} steps; 1D: Δx as plotted"
     return Outcome(summary, checks, resolution, name)
