@@ -16,14 +16,13 @@ import warp as wp
 from warpsph.environment import default_device
 from warpsph.sph.kernels import KERNELS
 from warpsph.sph.neighbours import NeighbourList
-from warpsph.sph.operators import operator_functions
+from warpsph.sph.operators import operator_functions, used_axes_algebra
 from warpsph.sph.spec import Spec
 
 wp.config.quiet = True
 DEVICE = default_device()  # WARPSPH_DEVICE, else the CPU
 DX = 0.1  # lattice spacing [m]
 H_RATIO = 1.3  # h = 1.3 Δx, support 2h = 2.6 Δx
-RHO = 1800.0  # density [kg/m³]; masses are ρ Δx^dim so that V_b = m_b/ρ_b = Δx^dim
 CELLS = {1: 12, 2: 10, 3: 8}  # box [0, n Δx]^dim
 
 
@@ -36,7 +35,7 @@ def _fit_kernel(spec: Spec):
     @wp.kernel(enable_backward=False, module="unique")
     def fit(
         query: wp.array(dtype=vec3), offsets: wp.array(dtype=wp.int32), nbr: wp.array(dtype=wp.int32),
-        xs: wp.array(dtype=vec3), ms: wp.array(dtype=real), rhos: wp.array(dtype=real),
+        xs: wp.array(dtype=vec3), vols: wp.array(dtype=real),
         fs: wp.array(dtype=real), vs: wp.array(dtype=vec3), h: real,
         f_out: wp.array(dtype=real), grad_out: wp.array(dtype=vec3), v_out: wp.array(dtype=vec3),
         G_out: wp.array(dtype=mat33), lam_out: wp.array(dtype=real), e_out: wp.array(dtype=vec3),
@@ -44,14 +43,14 @@ def _fit_kernel(spec: Spec):
     ):  # fmt: skip
         i = wp.tid()
         x = query[i]
-        c, inv_den, Minv, e, M, corrected = fit_operator(x, offsets[i], offsets[i + 1], nbr, xs, ms, rhos, h)
+        c, inv_den, Minv, e, M, corrected = fit_operator(x, offsets[i], offsets[i + 1], nbr, xs, vols, h)
         f = zero
         grad = vec3(zero, zero, zero)
         v = vec3(zero, zero, zero)
         G = mat33(zero)
         for k in range(offsets[i], offsets[i + 1]):
             b = nbr[k]
-            vol = ms[b] / rhos[b]
+            vol = vols[b]
             psi, phi = fit_weights(xs[b] - x, h, c, inv_den, Minv)
             f += (vol * psi) * fs[b]
             grad += (vol * fs[b]) * phi
@@ -85,8 +84,8 @@ def fit(spec: Spec, query: np.ndarray, source: np.ndarray, f: np.ndarray, v: np.
     types = {"f": spec.real, "grad": spec.vec3, "v": spec.vec3, "G": spec.mat33, "lam": spec.real,
              "e": spec.vec3, "corrected": wp.int32}  # fmt: skip
     out = {k: wp.zeros(nq, dtype=t, device=DEVICE) for k, t in types.items()}
-    ms, rhos = arr(np.full(len(source), RHO * DX**spec.dim), spec.real), arr(np.full(len(source), RHO), spec.real)
-    inputs = [q, nl.offsets, nl.indices, xs, ms, rhos, arr(f, spec.real), arr(v, spec.vec3), spec.real(h)]
+    vols = arr(np.full(len(source), DX**spec.dim), spec.real)
+    inputs = [q, nl.offsets, nl.indices, xs, vols, arr(f, spec.real), arr(v, spec.vec3), spec.real(h)]
     wp.launch(_fit_kernel(spec), dim=nq, inputs=inputs + list(out.values()), device=DEVICE)
     return {k: a.numpy().astype(np.float64) if k != "corrected" else a.numpy() for k, a in out.items()}
 
@@ -230,3 +229,40 @@ def test_surface_detection(kernel, dim):
     normal = -e / np.linalg.norm(e, axis=1)[:, None]
     dots = np.einsum("ni,ni->n", normal, outward[on_face_only])
     assert on_face_only.sum() == 2 * dim * (n - 5) ** (dim - 1) and dots.min() >= 0.9, dots
+
+
+@functools.cache
+def _used_axes_products(spec: Spec):
+    vec3, mat33 = spec.vec3, spec.mat33
+    outer_of_used_rows, apply_on_used_axes = used_axes_algebra(spec)
+
+    @wp.kernel(enable_backward=False, module="unique")
+    def products(a: wp.array(dtype=vec3), b: wp.array(dtype=vec3), M: wp.array(dtype=mat33),
+                 outer: wp.array(dtype=mat33), outer_full: wp.array(dtype=mat33), applied: wp.array(dtype=vec3),
+                 applied_full: wp.array(dtype=vec3)):  # fmt: skip
+        i = wp.tid()
+        outer[i] = outer_of_used_rows(a[i], b[i])
+        outer_full[i] = wp.outer(a[i], b[i])
+        applied[i] = apply_on_used_axes(M[i], a[i])
+        applied_full[i] = M[i] * a[i]
+
+    return products
+
+
+@pytest.mark.parametrize("dim", [1, 2, 3])
+def test_products_on_the_used_axes_are_the_full_products(dim):
+    """For an ``a`` zero along the unused axes and an M that couples no used axis to an unused one
+    (1 on the unused diagonal, as a correction matrix's inverse), the pair loops' reduced products
+    give the full products' bits."""
+    spec = Spec(dim=dim)
+    rng = np.random.default_rng(7)
+    mask = np.asarray(spec.axis_mask)
+    a = rng.standard_normal((200, 3)) * mask
+    b = rng.standard_normal((200, 3))
+    M = rng.standard_normal((200, 3, 3)) * np.outer(mask, mask) + np.diag(1.0 - mask)
+    arrays = [wp.array(a, dtype=spec.vec3, device=DEVICE), wp.array(b, dtype=spec.vec3, device=DEVICE),
+              wp.array(M, dtype=spec.mat33, device=DEVICE)]  # fmt: skip
+    outs = [wp.zeros(200, dtype=t, device=DEVICE) for t in (spec.mat33, spec.mat33, spec.vec3, spec.vec3)]
+    wp.launch(_used_axes_products(spec), dim=200, inputs=arrays + outs, device=DEVICE)
+    outer, outer_full, applied, applied_full = (o.numpy() for o in outs)
+    assert np.array_equal(outer, outer_full) and np.array_equal(applied, applied_full)

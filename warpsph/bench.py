@@ -15,6 +15,7 @@ import json
 import math
 import os
 import platform
+import resource
 import sys
 import time
 from pathlib import Path
@@ -42,8 +43,6 @@ DX = 0.05
 """Particle spacing of every block [m] (so Δt is the same at every size)."""
 PROFILE_STEPS = 5
 """Steps of the separate profiled pass (after one untimed profiled step)."""
-TARGET = {"particles": 16384, "dim": 2, "precision": "float64", "particle_steps_per_second": 3.6e5}
-"""Project target: PySPH 1.0b2's two-thread elastic scheme on these machines."""
 SOIL = Material(name="soil", density=1700.0, youngs_modulus=30.0e6, poisson_ratio=0.2)
 WATER = dict(porosity=0.3, grain_density=2000.0, water_density=1000.0, water_bulk_modulus=100.0e6)
 """Pore-water constants of a saturated block (with SOIL's E = 30 MPa, ν = 0.2, ρ = 1700 kg/m³, the mixture)."""
@@ -203,6 +202,7 @@ def bench_size(n: int, scheme: str, effects: str, threads: int, args) -> dict:
         "stage_share": {name: sec / total_stage for name, sec in stage.items()},
         "memory_bytes": memory,
         "memory_bytes_per_particle": sum(memory.values()) / particles,
+        "max_rss_bytes": resource.getrusage(resource.RUSAGE_SELF).ru_maxrss * 1024,
     }
 
 
@@ -279,25 +279,14 @@ def stage_table(results: list[dict]) -> str:
     return markdown_table(["scheme", "effects", "threads", "particles", *(f"{s} %" for s in names)], rows)
 
 
-def target_line(results: list[dict]) -> str | None:
-    """How the reference row compares with the project target, when this run has one."""
-    lines = []
-    for r in results:
-        if all(r[k] == TARGET[k] for k in ("particles", "dim", "precision")) and r["effects"] == "dry":
-            ratio = r["particle_steps_per_second"] / TARGET["particle_steps_per_second"]
-            lines.append(f"target: {TARGET['particle_steps_per_second']:.2g} particle-steps/s at {TARGET['particles']} "
-                         f"particles (2D, float64, dry); {r['scheme']} with {r['threads']} thread(s) measured "
-                         f"{r['particle_steps_per_second']:.3g} = {ratio:.2f} × target")  # fmt: skip
-    return "\n".join(lines) or None
-
-
 # -- command line -----------------------------------------------------------------------------------
 def parse_args(argv: list[str] | None) -> argparse.Namespace:
     p = argparse.ArgumentParser(prog="python -m warpsph.bench", description=__doc__.splitlines()[0],
                                 formatter_class=argparse.ArgumentDefaultsHelpFormatter)  # fmt: skip
     p.add_argument("--sizes", type=int, nargs="+", default=None,
                    help="particle counts (default: 1024 4096 16384 in 2D, 512 4096 13824 in 3D)")
-    p.add_argument("--dim", type=int, choices=(2, 3), default=2, help="dimension of the block")
+    p.add_argument("--dim", type=int, choices=(2, 3), nargs="+", default=[2],
+                   help="dimension of the block (several only with --peer)")
     p.add_argument("--device", default="cpu", help="Warp device: cpu or cuda:0")
     p.add_argument("--scheme", choices=("two_set", "collocated", "both"), default="two_set")
     p.add_argument("--precision", choices=("float32", "float64"), default="float64")
@@ -312,7 +301,17 @@ def parse_args(argv: list[str] | None) -> argparse.Namespace:
                    help="every effect set at the ladder sizes (2D: 4096 16384 65536; 3D: 4096 16384 32768)")
     p.add_argument("--quick", action="store_true", help=f"sizes {QUICK_SIZES}, {QUICK_STEPS} steps (a smoke test)")
     p.add_argument("--json", type=Path, default=Path("bench_results.json"), help="where to write the results")
+    p.add_argument("--peer", choices=("pysph",), default=None,
+                   help="side by side with PySPH's elastic scheme, interleaved (warpsph/bench_peer.py); "
+                        "--dim 2 3 picks the blocks, --threads the thread counts")
+    p.add_argument("--rounds", type=int, default=2, help="--peer: interleaved rounds (the table gives medians)")
+    p.add_argument("--peer-python", default=None,
+                   help="--peer: a Python that imports pysph (default: installed on demand, bench_peer.PEER_ENV)")
     args = p.parse_args(argv)
+    if args.peer is None:
+        if len(args.dim) > 1:
+            p.error("--dim takes one dimension unless --peer is given")
+        args.dim = args.dim[0]
     if args.ladder:
         args.sizes = args.sizes or list(LADDER_SIZES[args.dim])
         args.effects = list(EFFECT_SETS)
@@ -322,12 +321,17 @@ def parse_args(argv: list[str] | None) -> argparse.Namespace:
         p.error("--steps must be >= 1 and every size >= 4")
     if any(t < 1 for t in args.threads):
         p.error("--threads must be >= 1")
-    args.sizes = args.sizes or list(DEFAULT_SIZES[args.dim])
+    if args.rounds < 1:
+        p.error("--rounds must be >= 1")
+    if args.peer is None:
+        args.sizes = args.sizes or list(DEFAULT_SIZES[args.dim])
     return args
 
 
 def main(argv: list[str] | None = None) -> int:
     args = parse_args(argv)
+    if args.peer:
+        return peer_main(args)
     wp.config.log_level = wp.LOG_WARNING
     if args.device.startswith("cuda") and not wp.is_cuda_available():
         print(f"warpsph.bench: error: --device {args.device}: no CUDA device is available", file=sys.stderr)
@@ -354,10 +358,21 @@ def main(argv: list[str] | None = None) -> int:
     for scheme, effects in cases:
         rows = [r for r in results if (r["scheme"], r["effects"]) == (scheme, effects)]
         print(f"\nstage share of the step time ({scheme}, {effects}):\n" + stage_table(rows))
-    line = target_line(results)
-    if line:
-        print("\n" + line)
-    write_record(args.json, {"machine": machine, "settings": vars(args), "target": TARGET, "results": results})
+    write_record(args.json, {"machine": machine, "settings": vars(args), "results": results})
+    return 0
+
+
+def peer_main(args) -> int:
+    """``--peer pysph``: warpsph and PySPH interleaved on the same blocks (warpsph/bench_peer.py)."""
+    from warpsph import bench_peer
+
+    cases = [(dim, n, t) for dim in args.dim for n in (args.sizes or [bench_peer.PEER_SIZES[dim]])
+             for t in args.threads]  # fmt: skip
+    print(f"{cpu_model()} ({os.cpu_count()} CPUs): warpsph (dry two-set step, float64) against PySPH "
+          f"{bench_peer.PEER_VERSION} (elastic solids, EPEC), {args.rounds} interleaved rounds")  # fmt: skip
+    record = bench_peer.compare(cases, args.rounds, args.peer_python, args.steps)
+    print("\n" + bench_peer.summary_table(record))
+    write_record(args.json, {"machine": machine_record("cpu"), "settings": vars(args), **record})
     return 0
 
 

@@ -19,10 +19,10 @@ import warp as wp
 from warpsph.launching import launch, launch_rows
 from warpsph.builder import rigid_region_members
 from warpsph.model import Model, State
-from warpsph.sph.neighbours import NeighbourList
+from warpsph.sph.neighbours import NeighbourList, NeighbourScratch
 from warpsph.stages.boundaries import Boundaries
 from warpsph.stages.collocated import RK_TABLEAU, collocated_kernels
-from warpsph.stages.corrections import FitData, compute_fit_data
+from warpsph.stages.corrections import FitData, compute_fit_data, compute_volumes
 from warpsph.stages.damping import EQUILIBRIUM_VELOCITY_FILTER, LocalDamping
 from warpsph.stages.energy import EnergyLedger
 from warpsph.stages.ghost_layout import GhostLayout
@@ -59,7 +59,7 @@ class Solver:
         self.energy = EnergyLedger(model)
         """The particles' energy ledger the step adds to (:mod:`warpsph.stages.energy`)."""
         self.rigid = RigidRegions(model, self.energy.ledger)
-        s, dev = model.spec, model.device
+        s = model.spec
         self.layout: GhostLayout | None = None
         """Re-plans the ghosts as the body moves (``simulation.large_deformation`` only)."""
         if model.scene.simulation.large_deformation:
@@ -68,7 +68,6 @@ class Solver:
             self.layout = GhostLayout(model, self.boundaries.plane_position, regenerator,
                                       functools.partial(rigid_region_members, model.scene))  # fmt: skip
         self.support = 2.0 * model.h
-        self.surface_normal = wp.zeros(model.particle_count, dtype=s.vec3, device=dev)
         self.projection: PressureProjection | None = None  # pore_water only (two-set)
         if s.scheme == "two_set":
             self._init_two_set()
@@ -87,13 +86,23 @@ class Solver:
             self.damping = LocalDamping(model, damping, self.energy.ledger)
             self.stages.append(Stage("local_damping", lambda si, so, t, dt: self.damping.run(si, so, dt)))
 
+    def _neighbour_list(self, same_set: bool = False) -> NeighbourList:
+        """A neighbour list within the support, built in turn with the solver's others (one scratch)."""
+        m = self.model
+        return NeighbourList(m.spec, m.extent, self.support, m.device, same_set, self.neighbour_scratch)
+
     # -- two-set Taylor-SPH -------------------------------------------------------------------
     def _init_two_set(self) -> None:
         m, s, dev = self.model, self.model.spec, self.model.device
         self.virtual_v = wp.zeros(m.virtual_capacity, dtype=s.vec3, device=dev)
         self.virtual_stress = wp.zeros(m.virtual_capacity, dtype=s.mat33, device=dev)
-        self.virtual_to_real = NeighbourList(s, m.extent, self.support, dev)
-        self.real_to_virtual = NeighbourList(s, m.extent, self.support, dev)
+        self.real_volume = wp.zeros(m.particle_capacity, dtype=s.real, device=dev)
+        """V = m/ρ [m^dim] of the real particles and their ghosts at tⁿ, the pair loops' weights."""
+        self.virtual_volume = wp.zeros(m.virtual_capacity, dtype=s.real, device=dev)
+        """As real_volume, for the virtual points (their ghosts' renewed with them before the full step)."""
+        self.neighbour_scratch = NeighbourScratch(s, m.extent, self.support, dev)
+        self.virtual_to_real = self._neighbour_list()
+        self.real_to_virtual = self._neighbour_list()
         self.real_fits = FitData(s, m.particle_capacity, dev)
         self.virtual_fits = FitData(s, m.virtual_capacity, dev)
         self.virtual_rate = wp.zeros(m.virtual_capacity, dtype=s.real, device=dev)
@@ -116,13 +125,13 @@ class Solver:
                                Stage("virtual_continuity", self._virtual_continuity))
         if self.shifting:
             self.virtual_shift = wp.zeros(m.virtual_capacity, dtype=s.vec3, device=dev)
-            self.shift_real_to_real = NeighbourList(s, m.extent, self.support, dev, same_set=True)
-            self.shift_virtual_to_virtual = NeighbourList(s, m.extent, self.support, dev, same_set=True)
+            self.shift_real_to_real = self._neighbour_list(same_set=True)
+            self.shift_virtual_to_virtual = self._neighbour_list(same_set=True)
             self.stages.insert(self.stage_names.index("taylor_full_step"), Stage("shifting", self._shifting))
         self.virtual_p = None
         if s.effects.pore_water:
             self.virtual_p = wp.zeros(m.virtual_capacity, dtype=wp.float64, device=dev)
-            self.real_to_real = NeighbourList(s, m.extent, self.support, dev, same_set=True)
+            self.real_to_real = self._neighbour_list(same_set=True)
             self.projection = PressureProjection(m, self)
             if not self.fixed_pore_pressure:
                 self.stages.append(Stage("pressure_projection", self._project))
@@ -144,6 +153,9 @@ class Solver:
             self.projection.update_ghosts(si.particle_q, pressure, homogeneous=False)
         self.boundaries.update_virtual_ghosts(si.virtual_q, self.virtual_v, self.virtual_stress, si.virtual_density,
                                               self.virtual_p)
+        m = self.model  # the ghosts' densities are their sources' now: so are their volumes, for the full step
+        compute_volumes(m, m.virtual_mass, si.virtual_density, self.virtual_volume, m.virtual_count,
+                        m.virtual_ghost_count)
 
     def _neighbours_two_set(self, si: State, so: State, t: float, dt: float) -> None:
         m = self.model
@@ -154,11 +166,13 @@ class Solver:
 
     def _corrections(self, si: State, so: State, t: float, dt: float) -> None:
         m = self.model
-        compute_fit_data(m, self.virtual_to_real, si.virtual_q, m.virtual_count, si.particle_q, m.particle_mass,
-                         si.particle_density, self.virtual_fits, m.virtual_ghost_source, m.virtual_ghost_planes,
+        compute_volumes(m, m.particle_mass, si.particle_density, self.real_volume, 0, m.particle_total)
+        compute_volumes(m, m.virtual_mass, si.virtual_density, self.virtual_volume, 0, m.virtual_total)
+        compute_fit_data(m, self.virtual_to_real, si.virtual_q, m.virtual_count, si.particle_q, self.real_volume,
+                         self.virtual_fits, m.virtual_ghost_source, m.virtual_ghost_planes,
                          m.virtual_ghost_count)  # fmt: skip
-        compute_fit_data(m, self.real_to_virtual, si.particle_q, m.particle_count, si.virtual_q, m.virtual_mass,
-                         si.virtual_density, self.real_fits, m.particle_ghost_source, m.particle_ghost_planes,
+        compute_fit_data(m, self.real_to_virtual, si.particle_q, m.particle_count, si.virtual_q, self.virtual_volume,
+                         self.real_fits, m.particle_ghost_source, m.particle_ghost_planes,
                          m.particle_ghost_count)  # fmt: skip
 
     def _half_step(self, si: State, so: State, t: float, dt: float) -> None:
@@ -168,8 +182,8 @@ class Solver:
         nl = self.virtual_to_real
         launch_rows(half_step, m.virtual_count,
                [real(m.h), real(dt), m.spec.vec3(*m.gravity), real(m.scene.simulation.free_surface_threshold),
-                self._water_on_surface, nl.offsets, nl.indices, si.particle_q, m.particle_mass, si.particle_density,
-                si.particle_v, si.particle_stress, *self.real_fits.arrays(), si.virtual_q, si.virtual_density,
+                self._water_on_surface, nl.offsets, nl.indices, si.particle_q, self.real_volume, si.particle_v,
+                si.particle_stress, *self.real_fits.arrays(), si.virtual_q, si.virtual_density,
                 m.virtual_material, *self.virtual_fits.arrays(),
                 m.material_lambda, m.material_shear, self.virtual_v, self.virtual_stress, so.virtual_q,
                 so.virtual_density, self._stress_pressure(si), self._water_density, self.virtual_p,
@@ -196,6 +210,9 @@ class Solver:
         self.rigid.prescribe_virtual(self.virtual_v)
         self.boundaries.update_virtual_ghosts(si.virtual_q, self.virtual_v, self.virtual_stress, si.virtual_density,
                                               self.virtual_p)
+        m = self.model  # the ghosts' densities are their sources' now: so are their volumes, for the full step
+        compute_volumes(m, m.virtual_mass, si.virtual_density, self.virtual_volume, m.virtual_count,
+                        m.virtual_ghost_count)
         if self.projection is not None:
             self.projection.update_ghosts(si.virtual_q, self.virtual_p, homogeneous=False, virtual=True)
 
@@ -208,7 +225,8 @@ class Solver:
         launch_rows(full_step, m.particle_count,
                [real(m.h), real(dt), m.spec.vec3(*m.gravity), real(m.scene.simulation.free_surface_threshold),
                 self._water_on_surface, real(m.scene.simulation.artificial_viscosity), nl.offsets, nl.indices,
-                si.virtual_q, m.virtual_mass, si.virtual_density, self.virtual_v, self.virtual_stress,
+                si.virtual_q, m.virtual_mass, si.virtual_density, self.virtual_volume, self.virtual_v,
+                self.virtual_stress,
                 *self.virtual_fits.arrays()[:4], *self.real_fits.arrays(), si.particle_q, si.particle_v,
                 si.particle_stress, si.particle_density, m.particle_material, m.material_lambda, m.material_shear,
                 m.material_wave_speed, so.particle_q, so.particle_v, so.particle_stress, so.particle_density,
@@ -310,7 +328,9 @@ class Solver:
         m, s, dev = self.model, self.model.spec, self.model.device
         self.projection = None  # no pore water in the collocated scheme (the run loop asks)
         n, ne = m.particle_count, m.particle_capacity
-        self.real_to_real = NeighbourList(s, m.extent, self.support, dev, same_set=True)
+        self.neighbour_scratch = NeighbourScratch(s, m.extent, self.support, dev)
+        self.real_to_real = self._neighbour_list(same_set=True)
+        self.surface_normal = wp.zeros(n, dtype=s.vec3, device=dev)
         self.stage_v = wp.zeros(ne, dtype=s.vec3, device=dev)
         self.stage_stress = wp.zeros(ne, dtype=s.mat33, device=dev)
         self.stage_density = wp.zeros(ne, dtype=s.real, device=dev)

@@ -50,11 +50,10 @@ def kernel_derivative(kind: str, dim: int, r: np.ndarray, h: float) -> np.ndarra
 
 
 @functools.cache
-def smoothing_functions(spec: Spec):
-    """Return ``(W, grad_W)`` Warp functions for ``spec.kernel`` in ``spec.dim`` dimensions."""
-    real, vec3 = spec.real, spec.vec3
+def _shape_functions(spec: Spec):
+    """``(shape, shape_derivative, inv_h_pow)``: f(q), f′(q) and 1/h^dim as Warp functions."""
+    real = spec.real
     dim = spec.dim
-    norm = real(_NORM[spec.kernel][dim])
     one, two, half = real(1.0), real(2.0), real(0.5)
 
     if spec.kernel == "cubic_spline":
@@ -117,6 +116,16 @@ def smoothing_functions(spec: Spec):
             r = r * ih
         return r
 
+    return shape, shape_derivative, inv_h_pow
+
+
+@functools.cache
+def smoothing_functions(spec: Spec):
+    """Return ``(W, grad_W)`` Warp functions for ``spec.kernel`` in ``spec.dim`` dimensions."""
+    real, vec3 = spec.real, spec.vec3
+    norm = real(_NORM[spec.kernel][spec.dim])
+    shape, shape_derivative, inv_h_pow = _shape_functions(spec)
+
     @wp.func
     def W(r: real, h: real):
         return norm * inv_h_pow(h) * shape(r / h)
@@ -130,3 +139,24 @@ def smoothing_functions(spec: Spec):
         return x_ab * (dwdr / r)
 
     return W, grad_W
+
+
+@functools.cache
+def kernel_pair(spec: Spec):
+    """Warp function ``value_and_gradient(x_ab, h)`` = (W(|x_ab|, h), grad_W(x_ab, h)) from one
+    distance and one 1/h^dim: what a pair loop that needs both evaluates once per pair."""
+    real, vec3 = spec.real, spec.vec3
+    norm = real(_NORM[spec.kernel][spec.dim])
+    shape, shape_derivative, inv_h_pow = _shape_functions(spec)
+
+    @wp.func
+    def value_and_gradient(x_ab: vec3, h: real):
+        r = wp.length(x_ab)
+        scale = norm * inv_h_pow(h)
+        q = r / h
+        w = scale * shape(q)
+        if r <= real(1.0e-12) * h:
+            return w, vec3(real(0.0), real(0.0), real(0.0))
+        return w, x_ab * (scale / h * shape_derivative(q) / r)  # the same arithmetic as W and grad_W
+
+    return value_and_gradient

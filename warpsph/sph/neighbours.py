@@ -81,6 +81,25 @@ def grid_dims(extent: np.ndarray, cell: float, dim: int, max_cells: int = 256) -
     return dims[0], dims[1], dims[2]
 
 
+class NeighbourScratch:
+    """What a build needs only while it runs: the hash grid of the sources and the padded table of
+    the query pass. Lists built one after the other share one (the solver's lists do), so these
+    exist once, not once per list."""
+
+    def __init__(self, spec: Spec, extent: np.ndarray, radius: float, device):
+        nx, ny, nz = grid_dims(np.asarray(extent, dtype=float), radius, spec.dim)
+        self.grid = wp.HashGrid(nx, ny, nz, device=device, dtype=spec.real)
+        self.padded = wp.zeros(1, dtype=wp.int32, device=device)
+        """(n_query × width,) int32 padded neighbour table of the last query pass."""
+        self.device = device
+
+    def table(self, size: int) -> wp.array:
+        """The padded table, grown to at least ``size`` entries."""
+        if self.padded.shape[0] < size:
+            self.padded = wp.empty(size, dtype=wp.int32, device=self.device)
+        return self.padded
+
+
 class NeighbourList:
     """CSR neighbour list of query points against source points within ``radius`` [m].
 
@@ -88,29 +107,30 @@ class NeighbourList:
     point a are ``indices[offsets[a]:offsets[a+1]]``, in hash-grid cell order.
 
     A build makes one hash-grid query pass: it stores up to ``width`` neighbours per query point
-    in a padded (n_query, width) table while counting them, then scans the counts and compacts the
-    table into CSR. ``width`` adapts: when a point has more neighbours than the table holds (on
-    the first build, and whenever the particles crowd), the table grows to 1.25 × the largest
-    count and the query pass is repeated.
+    in a padded (n_query, width) table (:class:`NeighbourScratch`) while counting them, then scans
+    the counts and compacts the table into CSR. ``width`` adapts: when a point has more neighbours
+    than the table holds (on the first build, and whenever the particles crowd), the table grows to
+    1.25 × the largest count and the query pass is repeated.
     """
 
     GROWTH = 1.25
     """Headroom of the padded table over the largest neighbour count seen [-]."""
+    INDEX_HEADROOM = 1.05
+    """Headroom of the CSR indices over the pairs of the build that (re)allocates them [-]."""
 
-    def __init__(self, spec: Spec, extent: np.ndarray, radius: float, device, same_set: bool = False):
+    def __init__(self, spec: Spec, extent: np.ndarray, radius: float, device, same_set: bool = False,
+                 scratch: NeighbourScratch | None = None):  # fmt: skip
+        """``scratch``: shared with the lists built in turn with this one (a list of its own without)."""
         self.spec = spec
         self.radius = radius
         self.same_set = same_set
         self.device = device
-        nx, ny, nz = grid_dims(np.asarray(extent, dtype=float), radius, spec.dim)
-        self.grid = wp.HashGrid(nx, ny, nz, device=device, dtype=spec.real)
+        self.scratch = scratch or NeighbourScratch(spec, extent, radius, device)
         self.offsets = wp.zeros(1, dtype=wp.int32, device=device)
         self.counts = wp.zeros(1, dtype=wp.int32, device=device)
         self.indices = wp.zeros(1, dtype=wp.int32, device=device)
         self.width = 0
         """Neighbours per row of the padded table [-]."""
-        self.padded = wp.zeros(1, dtype=wp.int32, device=device)
-        """(n_query × width,) int32 padded neighbour table of the last query pass."""
         self.overflow = wp.zeros(1, dtype=wp.int32, device=device)
         """(1,) int32 1 where the last query pass found more neighbours than ``width``."""
         self.n_query = 0
@@ -121,7 +141,8 @@ class NeighbourList:
         gather, compact = _kernels(self.spec)
         real = self.spec.real
         src = source[:n_source]
-        self.grid.build(src, real(self.radius))
+        grid = self.scratch.grid
+        grid.build(src, real(self.radius))
         if self.counts.shape[0] < n_query + 1:
             self.counts = wp.zeros(n_query + 1, dtype=wp.int32, device=self.device)
             self.offsets = wp.zeros(n_query + 1, dtype=wp.int32, device=self.device)
@@ -129,12 +150,11 @@ class NeighbourList:
         if n_query == 0:
             self.n_pairs = 0
             return
-        args = [wp.uint64(self.grid.id), query, src, real(self.radius), int(self.same_set)]
+        args = [wp.uint64(grid.id), query, src, real(self.radius), int(self.same_set)]
         while True:
-            if self.padded.shape[0] < n_query * self.width:
-                self.padded = wp.empty(n_query * self.width, dtype=wp.int32, device=self.device)
+            padded = self.scratch.table(n_query * self.width)
             self.overflow.zero_()
-            launch_rows(gather, n_query, [*args, self.width, self.counts, self.padded, self.overflow], self.device)
+            launch_rows(gather, n_query, [*args, self.width, self.counts, padded, self.overflow], self.device)
             if not self.overflow.numpy()[0]:
                 break
             self.width = int(self.counts.numpy()[:n_query].max() * self.GROWTH) + 1
@@ -142,8 +162,8 @@ class NeighbourList:
         wp.utils.array_scan(self.counts[: n_query + 1], self.offsets[: n_query + 1], inclusive=False)
         self.n_pairs = int(self.offsets[n_query : n_query + 1].numpy()[0])
         if self.indices.shape[0] < max(self.n_pairs, 1):
-            self.indices = wp.zeros(int(self.n_pairs * self.GROWTH) + 16, dtype=wp.int32, device=self.device)
-        launch_rows(compact, n_query, [self.width, self.padded, self.offsets, self.indices], self.device)
+            self.indices = wp.zeros(int(self.n_pairs * self.INDEX_HEADROOM) + 16, dtype=wp.int32, device=self.device)
+        launch_rows(compact, n_query, [self.width, padded, self.offsets, self.indices], self.device)
 
     def to_lists(self) -> list[np.ndarray]:
         """Host copy, one sorted index array per query point (for tests and probes)."""

@@ -31,8 +31,7 @@ def _kernels(spec: Spec):
         nbr: wp.array(dtype=wp.int32),
         q: wp.array(dtype=vec3),
         src_q: wp.array(dtype=vec3),
-        src_mass: wp.array(dtype=real),
-        src_density: wp.array(dtype=real),
+        src_volume: wp.array(dtype=real),
         fit_c: wp.array(dtype=vec3),
         fit_inv_den: wp.array(dtype=real),
         fit_minv: wp.array(dtype=mat33),
@@ -40,8 +39,8 @@ def _kernels(spec: Spec):
         fit_lambda: wp.array(dtype=real),
     ):
         i = first + wp.tid()
-        c, inv_den, Minv, e, M, corrected = fit_operator(q[i], offsets[i], offsets[i + 1], nbr, src_q, src_mass,
-                                                         src_density, h)  # fmt: skip
+        c, inv_den, Minv, e, M, corrected = fit_operator(q[i], offsets[i], offsets[i + 1], nbr, src_q, src_volume,
+                                                         h)  # fmt: skip
         fit_c[i] = c
         fit_inv_den[i] = inv_den
         fit_minv[i] = Minv
@@ -82,7 +81,13 @@ def _kernels(spec: Spec):
         fit_inv_den[n_owned + g] = fit_inv_den[src]
         fit_lambda[n_owned + g] = fit_lambda[src]
 
-    return compute_fits, mirror_fits
+    @wp.kernel(enable_backward=False, module="unique")
+    def volumes(first: int, mass: wp.array(dtype=real), density: wp.array(dtype=real), volume: wp.array(dtype=real)):
+        """V = m/ρ [m^dim] of the point ``first`` + tid, once per step for the pair loops that weight by it."""
+        i = first + wp.tid()
+        volume[i] = mass[i] / density[i]
+
+    return compute_fits, mirror_fits, volumes
 
 
 class FitData:
@@ -104,12 +109,18 @@ class FitData:
         return [self.c, self.inv_den, self.minv, self.e, self.smallest_eigenvalue]
 
 
-def compute_fit_data(model: Model, neighbours: NeighbourList, q, n_owned: int, src_q, src_mass, src_density,
+def compute_volumes(model: Model, mass, density, volume, first: int, count: int) -> None:
+    """volume = mass / density for the points [first, first + count)."""
+    launch(_kernels(model.spec)[2], count, [first, mass, density, volume], model.device)
+
+
+def compute_fit_data(model: Model, neighbours: NeighbourList, q, n_owned: int, src_q, src_volume,
                      fits: FitData, ghost_source, ghost_planes, n_ghosts: int) -> None:  # fmt: skip
-    """Fill ``fits`` for the owned query points ``q[:n_owned]`` and mirror them onto their ghosts."""
-    compute_fits, mirror_fits = _kernels(model.spec)
+    """Fill ``fits`` for the owned query points ``q[:n_owned]`` from sources of volumes ``src_volume``
+    and mirror them onto their ghosts."""
+    compute_fits, mirror_fits, _ = _kernels(model.spec)
     launch_rows(compute_fits, n_owned,
-           [model.spec.real(model.h), neighbours.offsets, neighbours.indices, q, src_q, src_mass, src_density,
+           [model.spec.real(model.h), neighbours.offsets, neighbours.indices, q, src_q, src_volume,
             *fits.arrays()], model.device)  # fmt: skip
     launch(mirror_fits, n_ghosts, [n_owned, ghost_source, ghost_planes, model.plane_axis, *fits.arrays()],
            model.device)

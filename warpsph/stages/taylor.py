@@ -18,7 +18,7 @@ import warp as wp
 from warpsph.physics.elastic import elastic_functions, strain_energy_function
 from warpsph.physics.plasticity import material_struct, plastic_functions
 from warpsph.sph.kernels import smoothing_functions
-from warpsph.sph.operators import operator_functions
+from warpsph.sph.operators import operator_functions, used_axes_algebra
 from warpsph.sph.spec import Spec
 from warpsph.stages.energy import BOUNDARIES, GRAVITY, PLASTIC, PORE_WATER, STABILISATION, VISCOUS
 from warpsph.stages.shifting import shifting_kernels
@@ -38,12 +38,14 @@ def taylor_kernels(spec: Spec):
     real, vec3, mat33 = spec.real, spec.vec3, spec.mat33
     _fit, fit_weights, _unused, _eig = operator_functions(spec)
     _W, grad_W = smoothing_functions(spec)
+    outer = used_axes_algebra(spec)[0]
     shift_scaled = shifting_kernels(spec)[2]
     hooke_rate, source_increment, split_velocity_gradient = elastic_functions(spec)
     psi = strain_energy_function(spec)
     zero, half, one, two, two_thirds = real(0.0), real(0.5), real(1.0), real(2.0), real(2.0 / 3.0)
     share_floor = real(SURFACE_SHARE_FLOOR)
     moves = vec3(*map(real, spec.axis_mask))  # points move only along the used axes (1D shear: v_x ≠ 0)
+    used_x, used_z = spec.dim >= 2, spec.dim == 3  # y is used in every dimension
     pore_water = spec.effects.pore_water
     plasticity = spec.effects.plasticity
     # the plastic arrays' element types; a dry variant takes unused real arrays (passed None)
@@ -62,15 +64,14 @@ def taylor_kernels(spec: Spec):
     @wp.func
     def fit_value(
         x: vec3, start: int, end: int, nbr: wp.array(dtype=wp.int32), xs: wp.array(dtype=vec3),
-        ms: wp.array(dtype=real), rhos: wp.array(dtype=real), values: wp.array(dtype=real), h: real, c: vec3,
-        inv_den: real, Minv: mat33,
+        vols: wp.array(dtype=real), values: wp.array(dtype=real), h: real, c: vec3, inv_den: real, Minv: mat33,
     ):  # fmt: skip
-        """A scalar field fitted at x from the sources (the value part of the linear fit)."""
+        """A scalar field fitted at x from the sources of volumes ``vols`` (the value part of the linear fit)."""
         value = zero
         for k in range(start, end):
             b = nbr[k]
             psi, phi = fit_weights(xs[b] - x, h, c, inv_den, Minv)
-            value += (ms[b] / rhos[b] * psi) * values[b]
+            value += (vols[b] * psi) * values[b]
         return value
 
     @wp.func
@@ -127,7 +128,7 @@ def taylor_kernels(spec: Spec):
     @wp.func
     def fit_fields(
         x: vec3, start: int, end: int, nbr: wp.array(dtype=wp.int32), xs: wp.array(dtype=vec3),
-        ms: wp.array(dtype=real), rhos: wp.array(dtype=real), vs: wp.array(dtype=vec3),
+        vols: wp.array(dtype=real), vs: wp.array(dtype=vec3),
         sigmas: wp.array(dtype=mat33), h: real, c: vec3, inv_den: real, Minv: mat33, e: vec3,
         src_c: wp.array(dtype=vec3), src_inv_den: wp.array(dtype=real), src_minv: wp.array(dtype=mat33),
         src_e: wp.array(dtype=vec3), in_surface_band: bool, ps: wp.array(dtype=wp.float64), mid: real,
@@ -162,14 +163,17 @@ def taylor_kernels(spec: Spec):
         grad_p = vec3(zero, zero, zero)
         for k in range(start, end):
             b = nbr[k]
-            vol = ms[b] / rhos[b]
+            vol = vols[b]
             psi, phi = fit_weights(xs[b] - x, h, c, inv_den, Minv)
             v += (vol * psi) * vs[b]
             s += (vol * psi) * sigmas[b]
-            G += wp.outer(vol * phi, vs[b])
-            ds0 += (vol * phi[0]) * sigmas[b]
+            G += outer(vol * phi, vs[b])
+            # φ's component along an unused axis is exactly zero, so is that axis's gradient
+            if wp.static(used_x):
+                ds0 += (vol * phi[0]) * sigmas[b]
             ds1 += (vol * phi[1]) * sigmas[b]
-            ds2 += (vol * phi[2]) * sigmas[b]
+            if wp.static(used_z):
+                ds2 += (vol * phi[2]) * sigmas[b]
             if wp.static(pore_water):
                 p += wp.float64(vol * psi) * ps[b]
                 grad_p += (vol * real(ps[b])) * phi
@@ -178,7 +182,7 @@ def taylor_kernels(spec: Spec):
                 surface_sum += vol * (psi_b * src_e[b] - phi_b)
                 if per_share:
                     share += vol * psi_b
-        G -= wp.outer(e, v)
+        G -= outer(e, v)
         # gradients at tⁿ → on the configuration x + mid·v: ∂/∂x′_m = A[m,k] ∂/∂x_k, A = F⁻ᵀ
         A = wp.inverse(wp.identity(n=3, dtype=real) + mid * G)
         G = A * G
@@ -232,8 +236,7 @@ def taylor_kernels(spec: Spec):
         offsets: wp.array(dtype=wp.int32),
         nbr: wp.array(dtype=wp.int32),
         real_q: wp.array(dtype=vec3),
-        real_mass: wp.array(dtype=real),
-        real_density: wp.array(dtype=real),
+        real_volume: wp.array(dtype=real),
         real_v: wp.array(dtype=vec3),
         real_stress: wp.array(dtype=mat33),
         real_fit_c: wp.array(dtype=vec3),
@@ -273,7 +276,7 @@ def taylor_kernels(spec: Spec):
         mat = virt_material[i]
         rho = virt_density[i]
         body_force = skeleton_body_force(gravity, rho, water_density, mat)
-        v, s, G, div, p, _band, _water = fit_fields(x, offsets[i], offsets[i + 1], nbr, real_q, real_mass, real_density,
+        v, s, G, div, p, _band, _water = fit_fields(x, offsets[i], offsets[i + 1], nbr, real_q, real_volume,
                                                     real_v,
                                      real_stress, h, virt_fit_c[i], virt_fit_inv_den[i], virt_fit_minv[i],
                                      virt_fit_e[i], real_fit_c, real_fit_inv_den, real_fit_minv, real_fit_e,
@@ -287,7 +290,7 @@ def taylor_kernels(spec: Spec):
         v_half = v + hdt * (div / rho + body_force)
         opening = zero
         if wp.static(plasticity):
-            eps = fit_value(x, offsets[i], offsets[i + 1], nbr, real_q, real_mass, real_density, real_plastic_strain,
+            eps = fit_value(x, offsets[i], offsets[i + 1], nbr, real_q, real_volume, real_plastic_strain,
                             h, virt_fit_c[i], virt_fit_inv_den[i], virt_fit_minv[i])  # fmt: skip
             s_trial = s + hdt * hooke_rate(d, lam[mat], shear[mat])
             d_s, _d_eps = plastic_source(s_trial, eps, spin, hdt, lam[mat], shear[mat], plastic_material[mat])
@@ -316,6 +319,7 @@ def taylor_kernels(spec: Spec):
         virt_q: wp.array(dtype=vec3),
         virt_mass: wp.array(dtype=real),
         virt_density: wp.array(dtype=real),
+        virt_volume: wp.array(dtype=real),
         virt_v_half: wp.array(dtype=vec3),
         virt_stress_half: wp.array(dtype=mat33),
         virt_fit_c: wp.array(dtype=vec3),
@@ -366,8 +370,7 @@ def taylor_kernels(spec: Spec):
         mat = material[a]
         rho = density[a]
         body_force = skeleton_body_force(gravity, rho, water_density, mat)
-        v_half, s_half, G, div, p, band, water = fit_fields(x, offsets[a], offsets[a + 1], nbr, virt_q, virt_mass,
-                                                            virt_density,
+        v_half, s_half, G, div, p, band, water = fit_fields(x, offsets[a], offsets[a + 1], nbr, virt_q, virt_volume,
                                             virt_v_half, virt_stress_half, h, real_fit_c[a], real_fit_inv_den[a],
                                             real_fit_minv[a], real_fit_e[a], virt_fit_c, virt_fit_inv_den,
                                             virt_fit_minv, virt_fit_e, real_fit_lambda[a] < surface_threshold,
@@ -489,8 +492,8 @@ def taylor_kernels(spec: Spec):
             vol = real_mass[b] / real_density[b]
             psi, phi = fit_weights(real_q[b] - x, h, virt_fit_c[i], virt_fit_inv_den[i], virt_fit_minv[i])
             v += (vol * psi) * real_motion[b]
-            G += wp.outer(vol * phi, real_motion[b])
-        G -= wp.outer(virt_fit_e[i], v)
+            G += outer(vol * phi, real_motion[b])
+        G -= outer(virt_fit_e[i], v)
         G = wp.inverse(wp.identity(n=3, dtype=real) + half * dt * G) * G
         virt_density[i] = virt_density[i] * wp.exp(-dt * wp.trace(G))
 
