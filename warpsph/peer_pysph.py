@@ -63,7 +63,7 @@ def equations(dim: int, solid: str, wall: str):
     ]
 
 
-def make_application(dim: int, n: int, steps: int, stamps: list):
+def make_application(dim: int, n: int, stamps: list):
     from pysph.base.kernels import CubicSpline
     from pysph.solver.application import Application
     from pysph.solver.solver import Solver
@@ -135,7 +135,7 @@ def main(argv=None) -> int:
     args = p.parse_args(argv)
     os.environ["OMP_NUM_THREADS"] = str(args.threads)
     stamps = []
-    Block, dt = make_application(args.dim, args.particles, args.steps, stamps)
+    Block, dt = make_application(args.dim, args.particles, stamps)
     with tempfile.TemporaryDirectory() as out:
         app = Block(fname="peer_block", output_dir=out)
         openmp = ["--openmp"] if args.threads > 1 else []
@@ -147,8 +147,7 @@ def main(argv=None) -> int:
     particles = app.particles[0].get_number_of_particles()
     steady = len(stamps) - WARM_STEPS
     wall = stamps[-1] - stamps[WARM_STEPS - 1]
-    arrays = sum(pa.get_carray(name).get_c_type() and pa.get_carray(name).get_npy_array().nbytes
-                 for pa in app.particles for name in pa.properties)
+    arrays = sum(pa.get_carray(name).get_npy_array().nbytes for pa in app.particles for name in pa.properties)
     print(json.dumps({
         "peer": "pysph", "peer_version": pysph.__version__, "dim": args.dim, "threads": args.threads,
         "particles": particles, "wall_particles": app.particles[1].get_number_of_particles(), "steps": steady,

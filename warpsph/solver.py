@@ -99,7 +99,8 @@ class Solver:
         self.real_volume = wp.zeros(m.particle_capacity, dtype=s.real, device=dev)
         """V = m/ρ [m^dim] of the real particles and their ghosts at tⁿ, the pair loops' weights."""
         self.virtual_volume = wp.zeros(m.virtual_capacity, dtype=s.real, device=dev)
-        """As real_volume, for the virtual points (their ghosts' renewed with them before the full step)."""
+        """As real_volume, for the virtual points and their ghosts: the full step's too, since the
+        ghosts' densities the virtual_ghosts stage copies from their sources are those of the ghosts stage."""
         self.neighbour_scratch = NeighbourScratch(s, m.extent, self.support, dev)
         self.virtual_to_real = self._neighbour_list()
         self.real_to_virtual = self._neighbour_list()
@@ -153,9 +154,6 @@ class Solver:
             self.projection.update_ghosts(si.particle_q, pressure, homogeneous=False)
         self.boundaries.update_virtual_ghosts(si.virtual_q, self.virtual_v, self.virtual_stress, si.virtual_density,
                                               self.virtual_p)
-        m = self.model  # the ghosts' densities are their sources' now: so are their volumes, for the full step
-        compute_volumes(m, m.virtual_mass, si.virtual_density, self.virtual_volume, m.virtual_count,
-                        m.virtual_ghost_count)
 
     def _neighbours_two_set(self, si: State, so: State, t: float, dt: float) -> None:
         m = self.model
@@ -210,9 +208,6 @@ class Solver:
         self.rigid.prescribe_virtual(self.virtual_v)
         self.boundaries.update_virtual_ghosts(si.virtual_q, self.virtual_v, self.virtual_stress, si.virtual_density,
                                               self.virtual_p)
-        m = self.model  # the ghosts' densities are their sources' now: so are their volumes, for the full step
-        compute_volumes(m, m.virtual_mass, si.virtual_density, self.virtual_volume, m.virtual_count,
-                        m.virtual_ghost_count)
         if self.projection is not None:
             self.projection.update_ghosts(si.virtual_q, self.virtual_p, homogeneous=False, virtual=True)
 
