@@ -11,7 +11,7 @@ import pytest
 from warpsph.builder import build
 from warpsph.errors import SimulationError
 from warpsph.io import load_checkpoint, load_results
-from warpsph.runner import ENERGY_MADE_LIMIT, Run
+from warpsph.runner import ENERGY_GROWTH, ENERGY_MADE_LIMIT, GUARD_WINDOW, Run
 from warpsph.scene_toml import load_scene
 from warpsph.solver import Solver
 from warpsph.stages.energy import balance_warnings, energy_balance, energy_made
@@ -94,22 +94,22 @@ def test_a_run_writes_its_balance_and_resumes_it(tmp_path):
 
 def test_the_guard_stops_steps_that_make_energy(tmp_path):
     """The wave column at Courant 2, beyond the integrator's stability limit (the scene is changed after
-    validation, which refuses it): its odd-even mode grows from the first steps; steps 11-20 make
-    74 % of the energy in play, more than twice what steps 1-10 made, and the guard stops the run at step 20,
-    its stress still below
-    4 × the load, where the speed bound alone let it run to step 62 and 17.5 MPa; the checkpoint
-    kept is from before. The stable run at Courant 1.5 makes none."""
+    validation, which refuses it): its odd-even mode makes energy from step 3 on, 0.016, 0.022 and
+    0.076 J over steps 3-4, 5-6 and 7-8, the last 12 % of the energy in play; the guard stops the run at
+    step 8, within 5 steps of the growth's start, where the speed bound alone let it run to step 62
+    and 17.5 MPa. The checkpoint kept, from step 6, is still below the load's first overshoot. The
+    stable run at Courant 1.5 makes none."""
     scene = wave_column()
     scene.simulation.courant = 2.0
-    scene.output.frame_interval = 10 * scene.time_step
+    scene.output.frame_interval = GUARD_WINDOW * scene.time_step
     with pytest.raises(SimulationError) as info:
         Run(scene, tmp_path / "unstable", end_time=200 * scene.time_step).run()
     message = str(info.value)
     print(message)
-    assert "unstable at step 20," in message and "the last 10 steps made" in message
-    assert "more than 2 times what the 10 before made" in message
-    assert f"(at most {100 * ENERGY_MADE_LIMIT:g} %)" in message and "\n" not in message
+    assert "unstable at step 8," in message and "\n" not in message
+    assert f"the energy made from nothing grew over three windows of {GUARD_WINDOW} steps" in message
+    assert f"(limit {100 * ENERGY_MADE_LIMIT:g} %) and 4.67 times the first's (limit {ENERGY_GROWTH:g})" in message
     checkpoint = load_checkpoint(tmp_path / "unstable" / "checkpoint.h5")
-    assert checkpoint.step == 10 and np.abs(checkpoint.arrays["particle_stress"]).max() < 4 * 5000.0
+    assert checkpoint.step == 6 and np.abs(checkpoint.arrays["particle_stress"]).max() < 2 * 5000.0
     scene.simulation.courant = 1.5
     assert Run(scene, tmp_path / "stable", end_time=200 * scene.time_step).run().status == "finished"

@@ -497,8 +497,11 @@ def test_small_cohesion_warns_and_courant_above_1_is_refused():
         'model = "elastic"', 'model = "viscoplastic"\ncohesion = 10\nfriction_angle = 30')  # fmt: skip
     with pytest.warns(SceneWarning, match=r"materials.soil.cohesion = 10.0 Pa is below 100 Pa \(Pa, not kPa\)"):
         parse_scene(plastic)
-    with pytest.raises(SceneError, match=r"simulation.courant: must be in \(0, 1.5\] \(the wave column blows up at 2"):
+    with pytest.raises(SceneError, match=r"simulation.courant: must be in \(0, 1.5\] \(the two_set rk4 step's "
+                       r"energy grows at 1.7 on the wave column; docs/accuracy.md, \*Stability limit\*\), got 2.0$"):
         parse_scene(BASE.replace('scheme = "two_set"', 'scheme = "two_set"\ncourant = 2'))
+    with pytest.raises(SceneError, match=r"simulation.courant: must be in \(0, 0.5\] \(the collocated rk2 step's"):
+        parse_scene(BASE.replace('scheme = "two_set"', 'scheme = "collocated"\nintegrator = "rk2"\ncourant = 0.6'))
 
 
 @pytest.mark.parametrize("data, message", [

@@ -164,12 +164,17 @@ OUTPUT_RESERVE = 1 << 20
 """Bytes a frame or checkpoint write leaves free on the disk beyond twice its arrays [B]."""
 CHECK_EVERY = 10
 """Steps between two reads of an equilibrium phase's unbalanced force, a dynamic phase's kinetic
-energy, or the energy balance the run guard checks: each read waits for the device."""
-ENERGY_MADE_LIMIT = 0.25
-"""The run guard stops a run whose last ``CHECK_EVERY`` steps made more than this fraction of the energy
-in play from nothing (:func:`~warpsph.stages.energy.energy_made`), and more than ``ENERGY_GROWTH`` times
-what the ``CHECK_EVERY`` steps before made: an unstable mode's energy grows from one check to the next,
-where a phase's first steps, adjusting to what it changed, make theirs once."""
+energy, or the energy balance written as series: each read waits for the device."""
+GUARD_WINDOW = 2
+"""Steps between two checks of the energy balance by the run guard (a divisor of ``CHECK_EVERY``): the
+window over which it measures the energy made, short enough to stop an unstable mode within a few
+steps of its start, while its checkpoint before is still good."""
+ENERGY_MADE_LIMIT = 0.05
+"""The run guard stops a run whose last ``GUARD_WINDOW`` steps made more than this fraction of the energy
+in play from nothing (:func:`~warpsph.stages.energy.energy_made`), after three windows each of which
+made more than the one before, the last more than ``ENERGY_GROWTH`` times the first: an unstable mode's
+energy grows from one window to the next, where a phase's first steps, adjusting to what it changed,
+make theirs once, and a balance that does not close makes its share steadily."""
 ENERGY_GROWTH = 2.0
 
 
@@ -525,26 +530,30 @@ class Run:
         self.step_index += 1
         self.summary.steps += 1
         self._check()
-        if (self.step_index - self.phase_start_step) % CHECK_EVERY == 0:
+        if (self.step_index - self.phase_start_step) % GUARD_WINDOW == 0:
             self._check_energy()
         self._record_pressure_solve()
 
     def _check_energy(self) -> None:
-        """Stop the run once its last ``CHECK_EVERY`` steps made more than ``ENERGY_MADE_LIMIT`` of the
-        energy in play and more than ``ENERGY_GROWTH`` times what the ``CHECK_EVERY`` before made."""
+        """Stop the run once the energy made by its last three ``GUARD_WINDOW`` windows of steps rose from
+        each to the next, by more than ``ENERGY_GROWTH`` over the three, to more than
+        ``ENERGY_MADE_LIMIT`` of the energy in play in the last; every ``CHECK_EVERY`` steps write the
+        balance as series."""
         balance = self._energy_balance()
         if balance is None:
             return
-        since, before = self.loop.get("energy_error", 0.0), self.loop.get("energy_made")
+        since = self.loop.get("energy_error", 0.0)
         made = energy_made(balance, since, self.loop["energy_start"])
-        now = balance["error"] - since
-        self.loop["energy_error"], self.loop["energy_made"] = balance["error"], now
-        if self.phase.kind != "safety":  # a trial's balance is written with its frame
-            self._energy_series(balance)
-        if made > ENERGY_MADE_LIMIT and before is not None and now > ENERGY_GROWTH * before:
-            self._unstable(f"the last {CHECK_EVERY} steps made {now:.4g} J of energy from nothing, {100 * made:.3g} % "
-                           f"of the energy in play (at most {100 * ENERGY_MADE_LIMIT:g} %) and more than "
-                           f"{ENERGY_GROWTH:g} times what the {CHECK_EVERY} before made")  # fmt: skip
+        windows = [*self.loop.get("energy_windows", [])[-2:], balance["error"] - since]
+        self.loop["energy_error"], self.loop["energy_windows"] = balance["error"], windows
+        if self.phase.kind != "safety" and (self.step_index - self.phase_start_step) % CHECK_EVERY == 0:
+            self._energy_series(balance)  # a trial's balance is written with its frame
+        rising = len(windows) == 3 and 0.0 < windows[0] < windows[1] < windows[2]
+        if made > ENERGY_MADE_LIMIT and rising and windows[2] > ENERGY_GROWTH * windows[0]:
+            self._unstable(f"the energy made from nothing grew over three windows of {GUARD_WINDOW} steps, to "
+                           f"{windows[2]:.4g} J in the last, {100 * made:.3g} % of the energy in play (limit "
+                           f"{100 * ENERGY_MADE_LIMIT:g} %) and {windows[2] / windows[0]:.3g} times the first's "
+                           f"(limit {ENERGY_GROWTH:g})")  # fmt: skip
 
     def _output(self, last: bool, frame_every: int, ck_every: int) -> None:
         """Frames, probe samples and checkpoints at their cadence (steps since the phase's start)."""
@@ -874,7 +883,7 @@ class Run:
         """Start the energy balance (and the run guard's check of it) from the current state."""
         if self._books_energy:
             self.loop["energy_start"] = self.solver.energy.sums(self.state).tolist()
-            self.loop["energy_error"], self.loop["energy_made"] = 0.0, None
+            self.loop["energy_error"], self.loop["energy_windows"] = 0.0, []
 
     def _energy_report(self) -> dict:
         """The phase's energy balance at its end and one line per check it fails (:func:`balance_warnings`;
