@@ -107,6 +107,10 @@ class Simulation:
     """Two-set scheme: fraction β [-] of the real particles' velocity that the virtual points do not see
     (their own mid-step velocity against the one fitted at them, which moves them) removed each step
     (0 disables it; docs/method.md, "Velocity filter")."""
+    hourglass_control: float = 0.0
+    """Two-set scheme: coefficient α [-] of the hourglass control, the pairwise damping of the real
+    particles' velocity that their own linear fit does not hold, with the viscosity α ρ c h (0 disables
+    it; docs/method.md, "Hourglass control")."""
     velocity_limit: float | None = None
     """Run guard: the run stops if a particle moves faster than this [m/s]; None: the largest P-wave
     speed of the scene's materials (``inf`` turns the bound off)."""

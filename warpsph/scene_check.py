@@ -489,6 +489,8 @@ def _check_simulation(sim: Simulation) -> None:
     check_choice("simulation.precision", sim.precision, ("float32", "float64"))
     check_range("simulation.artificial_viscosity", sim.artificial_viscosity, NON_NEGATIVE)
     check_range("simulation.stress_filter", sim.stress_filter, Interval(0.0, 0.5, lo_closed=True, hi_closed=True))
+    check_range("simulation.hourglass_control", sim.hourglass_control,
+                Interval(0.0, 1.0, lo_closed=True, hi_closed=True))
     check_range("simulation.velocity_filter", sim.velocity_filter, Interval(0.0, 0.5, lo_closed=True, hi_closed=True))
     if sim.velocity_limit is not None:
         check_range("simulation.velocity_limit", sim.velocity_limit, POSITIVE)
@@ -499,6 +501,7 @@ def _check_simulation(sim: Simulation) -> None:
     check_range("simulation.particle_shifting", sim.particle_shifting, NON_NEGATIVE)
     two_set_only = (("stress_filter", sim.stress_filter > 0.0, "acts between the two point sets"),
                     ("velocity_filter", sim.velocity_filter > 0.0, "acts between the two point sets"),
+                    ("hourglass_control", sim.hourglass_control > 0.0, "damps what the two sets' fits miss"),
                     ("virtual_density", sim.virtual_density != "integrated", "is the virtual points' density"))
     for key, used, what in two_set_only:
         if used and sim.scheme != "two_set":

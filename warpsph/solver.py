@@ -27,6 +27,7 @@ from warpsph.stages.damping import EQUILIBRIUM_VELOCITY_FILTER, LocalDamping
 from warpsph.stages.energy import EnergyLedger
 from warpsph.stages.ghost_layout import GhostLayout
 from warpsph.stages.groundwater_kernels import groundwater_kernels
+from warpsph.stages.hourglass import HourglassControl
 from warpsph.stages.rigid import RigidRegions
 from warpsph.stages.surface_water import SurfaceWater, levels, surface_water
 from warpsph.stages.shifting import apply_shift, compute_shift
@@ -129,6 +130,12 @@ class Solver:
             self.shift_real_to_real = self._neighbour_list(same_set=True)
             self.shift_virtual_to_virtual = self._neighbour_list(same_set=True)
             self.stages.insert(self.stage_names.index("taylor_full_step"), Stage("shifting", self._shifting))
+        alpha = m.scene.simulation.hourglass_control
+        if alpha > 0.0:
+            self.hourglass = HourglassControl(m, alpha, self._neighbour_list(same_set=True), self.real_volume,
+                                              self.energy.ledger)  # fmt: skip
+            self.stages.insert(self.stage_names.index("taylor_full_step") + 1, Stage(
+                "hourglass_control", lambda si, so, t, dt: self.hourglass.run(si, so, dt)))
         self.virtual_p = None
         if s.effects.pore_water:
             self.virtual_p = wp.zeros(m.virtual_capacity, dtype=wp.float64, device=dev)

@@ -22,38 +22,22 @@ import functools
 
 import numpy as np
 import pytest
-from stability_tools import SOLID, energy, largest_rise, march, scheme_params, step_jacobian
+from stability_tools import largest_rise, scheme_params, step_jacobian
 
-from warpsph.scene import Body, Scene, Simulation
+from warpsph.scene import Scene
+from warpsph.stability.elastic import free_plate_scene, seeded_plate_energies
 
-NOISE = 1e-3
-"""Standard deviation of the seeded velocity per component [m/s]."""
 STEPS = 3000
 
 
 def plate(scheme: str) -> Scene:
-    return Scene(simulation=Simulation(dim=2, dx=0.1, scheme=scheme), materials={"solid": SOLID},
-                 bodies=[Body("plate", "solid", min=(0, 0, 0), max=(2, 0.4, 0))]).validate()  # fmt: skip
+    return free_plate_scene(scheme=scheme)
 
 
 @functools.cache
 def energies(scheme: str) -> np.ndarray:
     """Total energy [J/m] every 100 steps; the run stops once it has grown a hundredfold."""
-    scene = plate(scheme)
-    rows = []
-
-    def seed(model, state):
-        n = model.particle_count
-        v = state.particle_v.numpy()
-        v[:n, :2] = NOISE * np.random.default_rng(0).standard_normal((n, 2))
-        state.particle_v.assign(v)
-
-    def observe(k, model, state):
-        rows.append(energy(model, state))
-        return bool(rows[-1] < 100.0 * rows[0])
-
-    march(scene, STEPS, observe, every=100, setup=seed)
-    return np.array(rows)
+    return seeded_plate_energies(plate(scheme), STEPS)
 
 
 @pytest.mark.parametrize("scheme", scheme_params({
