@@ -63,3 +63,16 @@ def test_a_bad_option_is_one_line_and_exit_2(tmp_path, capsys, option, message):
 def test_the_board_lists_the_hard_cases():
     assert list(CASES)[:2] == ["patch_affine", "patch_rotation"]
     assert {"free_plate", "cantilever", "free_bar", "spinning_disc", "block_own_weight"} <= set(CASES)
+
+
+def test_boards_compare_side_by_side(tmp_path, capsys):
+    """``--compare`` prints boards written before side by side, labelled by their options."""
+    for name, args in (("defaults", []), ("viscosity", ["--set", "simulation.artificial_viscosity=0.1"])):
+        main(["--only", "patch_affine", "--out", str(tmp_path / f"{name}.json"), *args])
+    capsys.readouterr()
+    assert main(["--compare", str(tmp_path / "defaults.json"), str(tmp_path / "viscosity.json")]) == 0
+    lines = capsys.readouterr().out.splitlines()
+    print("\n".join(lines))
+    assert lines[0] == "| case | quantity | limit | defaults | artificial_viscosity = 0.1 |"
+    assert lines[2].startswith("| patch_affine | largest change by the control | ≤ 1e-10 | 0 ✓ (")
+    assert main(["--compare", str(tmp_path / "missing.json")]) == 2

@@ -176,3 +176,19 @@ def markdown_table(board: Board) -> str:
     lines = ["| " + " | ".join(HEADER) + " |", "|" + "---|" * len(HEADER)]
     lines += [f"| {format_row(r)} |" for r in board.rows]
     return "\n".join(lines)
+
+
+def comparison_table(boards: list[dict], labels: list[str]) -> str:
+    """Boards read from their JSON files side by side as a Markdown table: a row per case and quantity,
+    a column per board with the measured value (✓ where it holds) and the energy balance's error."""
+    keys = list(dict.fromkeys((r["case"], r["quantity"], r["relation"], r["limit"]) for b in boards for r in b["rows"]))
+    found = [{(r["case"], r["quantity"]): r for r in b["rows"]} for b in boards]
+    lines = ["| case | quantity | limit | " + " | ".join(labels) + " |", "|" + "---|" * (3 + len(labels))]
+    for case_name, quantity, relation, limit in keys:
+        cells = []
+        for rows in found:
+            r = rows.get((case_name, quantity))
+            energy = "" if r is None or r["energy_error"] is None else f" ({_number(r['energy_error'])})"
+            cells.append("" if r is None else f"{_number(r['measured'])}{' ✓' if r['holds'] else ''}{energy}")
+        lines.append(f"| {case_name} | {quantity} | {relation} {_number(limit)} | " + " | ".join(cells) + " |")
+    return "\n".join(lines)
