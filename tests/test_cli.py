@@ -70,8 +70,11 @@ def test_run_writes_results(scenes_dir, tmp_path):
 
 
 def test_help_shows_defaults():
+    """Each option's default once, and none where there is none to show."""
     result = warpsph("run", "--help")
     assert result.returncode == 0 and "--end-time" in result.stdout and f"default: {default_device()}" in result.stdout
+    text = " ".join(result.stdout.split())
+    assert text.count("default: runs/SCENE_NAME") == 1 and "default: None" not in text and "default: False" not in text
 
 
 def test_blow_up_stops_with_message_and_keeps_output(scenes_dir, tmp_path):

@@ -318,3 +318,15 @@ changes = { "materials.soil.youngs_modulus" = 4e7 }
     assert phase_scene(scene, 1).materials["soil"].youngs_modulus == 4e7
     assert phase_scene(scene, 0).materials["soil"].youngs_modulus == 2e7
     assert scene.materials["soil"].youngs_modulus == 2e7
+
+
+def test_a_phase_the_guard_stops_is_recorded_unstable(tmp_path):
+    """A speed bound below what the surcharge's first steps give: the guard stops the run in the
+    equilibrium phase, which ``/phases`` records as ``unstable`` with the step it stopped at."""
+    scene = staged_scene()
+    scene.simulation.velocity_limit = 1e-9
+    with pytest.raises(warpsph.SimulationError, match=r"unstable at step \d+ \(phase surcharge\)"):
+        warpsph.run_scene(scene.validate(), tmp_path, device="cpu")
+    phases = warpsph.load_results(tmp_path / "results.h5").phases
+    assert [(p["name"], p["outcome"]) for p in phases] == [("initial", "converged"), ("surcharge", "unstable")]
+    assert phases[1]["last_step"] > phases[1]["first_step"] >= 0

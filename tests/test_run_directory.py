@@ -18,7 +18,7 @@ import warpsph
 from warpsph.cli import EXIT_BAD_INPUT, EXIT_DEVICE, EXIT_INTERRUPTED, EXIT_OUTPUT, main
 from warpsph.errors import InputError, OutputError
 from warpsph.io import load_checkpoint, load_results
-from warpsph.io.run_directory import RunDirectory
+from warpsph.io.run_directory import LOCK, RunDirectory
 from warpsph.runner import Run
 from warpsph.scene_toml import load_scene
 
@@ -56,6 +56,7 @@ def test_a_second_run_into_a_directory_in_use_is_refused(column, tmp_path):
         Run(column, tmp_path, end_time=END)
     held.release()
     assert Run(column, tmp_path, end_time=END).run().status == "finished"
+    assert not (tmp_path / LOCK).exists()  # a run that ends takes its lock file with it
 
 
 def test_resume_refuses_a_changed_scene_and_records_the_resumed_one(column, tmp_path):

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import warnings
 from pathlib import Path
 
 import numpy as np
@@ -490,6 +491,19 @@ def test_implausible_values_warn_with_the_unit(line, key):
     old = "youngs_modulus = 1e7" if key == "youngs_modulus" else "density = 2000"
     with pytest.warns(SceneWarning, match=f"materials.soil.{key} = .*(not kPa|not t/m³)"):
         parse_scene(BASE.replace(old, line))
+
+
+def test_an_angle_in_radians_warns():
+    """friction_angle = 0.4887 (28° in radians by mistake) passes the range check but warns, naming the
+    key and the degrees it would be; 28° does not."""
+    plastic = BASE.replace("pore_water = false", "pore_water = false\nplasticity = true").replace(
+        'model = "elastic"', 'model = "viscoplastic"\ncohesion = 1000\nfriction_angle = 0.4887')  # fmt: skip
+    with pytest.warns(SceneWarning, match=r"materials.soil.friction_angle = 0.4887° is at most 1.57°, like an angle "
+                                          r"in radians \(28° if it is one\): angles are in degrees"):
+        parse_scene(plastic)
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        parse_scene(plastic.replace("friction_angle = 0.4887", "friction_angle = 28"))
 
 
 def test_small_cohesion_warns_and_courant_above_1_is_refused():

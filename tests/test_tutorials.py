@@ -84,3 +84,13 @@ def test_slope_factor_of_safety(tmp_path):
     assert front[-1] == pytest.approx(10.04, abs=0.005) and crest[-1] == pytest.approx(2.21, abs=0.005)
     assert runout["criterion"] == pytest.approx(0.029, abs=0.001)
     quoted(page, "from 12.00 to 10.04 m", "settles 2.21 m", "2.9 % of its peak")
+
+
+def test_the_tutorials_say_how_warpsph_gets_on_the_path():
+    """The tutorials type plain ``warpsph``; the README's install leaves it in .venv/bin, so the README
+    and the first tutorial say how to put it on the PATH."""
+    root = Path(__file__).resolve().parents[1]
+    readme = (root / "README.md").read_text()
+    first = (root / "docs" / "tutorials" / "first_model.md").read_text()
+    assert "`source .venv/bin/activate` then puts `warpsph` on the shell's PATH" in readme
+    assert "source .venv/bin/activate" in first and first.index("activate") < first.index("warpsph validate")

@@ -21,12 +21,22 @@ from warpsph.study import command as study_command
 EXIT_UNSTABLE, EXIT_BAD_INPUT, EXIT_NOT_CONVERGED, EXIT_OUTPUT, EXIT_DEVICE, EXIT_INTERRUPTED = 1, 2, 3, 4, 5, 130
 
 
+class HelpFormatter(argparse.ArgumentDefaultsHelpFormatter):
+    """Appends an option's default to its help unless the help says it already, or there is none to say
+    (None, or a flag's False)."""
+
+    def _get_help_string(self, action) -> str:
+        if "default:" in (action.help or "") or action.default in (None, False):
+            return action.help
+        return super()._get_help_string(action)
+
+
 def _parser() -> argparse.ArgumentParser:
     p = argparse.ArgumentParser(prog="warpsph", description="Two-set Taylor-SPH for soils, on NVIDIA Warp.",
-                                formatter_class=argparse.ArgumentDefaultsHelpFormatter)  # fmt: skip
+                                formatter_class=HelpFormatter)  # fmt: skip
     p.add_argument("--version", action="version", version=_version())
     sub = p.add_subparsers(dest="command", required=True)
-    run = sub.add_parser("run", help="run a scene", formatter_class=argparse.ArgumentDefaultsHelpFormatter)
+    run = sub.add_parser("run", help="run a scene", formatter_class=HelpFormatter)
     run.add_argument("scene", type=Path, help="scene file (TOML, see docs/scenes.md)")
     run.add_argument("--device", default=default_device(),
                      help="Warp device: cpu or cuda:0 ($WARPSPH_DEVICE sets the default)")
@@ -47,7 +57,7 @@ def _parser() -> argparse.ArgumentParser:
     val.add_argument("scene", type=Path, help="scene file (TOML)")
     val.add_argument("--device", default=default_device(), help="Warp device the estimate is measured on")
     val.add_argument("--no-estimate", action="store_true", help="build the particles but time no step")
-    study_command.add_parser(sub)
+    study_command.add_parser(sub, HelpFormatter)
     return p
 
 

@@ -18,9 +18,11 @@ from warpsph.scene import Material, Phase, Scene
 
 SWITCHED = ("bodies", "loads", "boundaries")
 """The sections whose items a phase activates or deactivates by name."""
-CONVERGED, NOT_CONVERGED, FINISHED, AT_REST, STOPPED = "converged", "not converged", "finished", "at rest", "stopped"
-"""A phase's outcome: an equilibrium that reached its criterion or its step cap; a
-dynamic phase that ran its duration or came to rest; a phase cut short by ``--end-time``."""
+CONVERGED, NOT_CONVERGED, FINISHED, AT_REST, STOPPED, UNSTABLE = ("converged", "not converged", "finished", "at rest",
+                                                                   "stopped", "unstable")  # fmt: skip
+"""A phase's outcome: an equilibrium that reached its criterion or its step cap; a dynamic phase that
+ran its duration or came to rest; a phase cut short by ``--end-time`` or a signal; a phase the run
+guard stopped."""
 
 
 @dataclass

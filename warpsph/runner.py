@@ -40,7 +40,7 @@ from warpsph.io.run_directory import RunDirectory, first_difference, scene_recor
 from warpsph.initial_stress import geostatic_stress, geostatic_unit_weight
 from warpsph.model import PLANE_TRACTION, Model, State
 from warpsph.phase_state import ParticleIds, carry_state
-from warpsph.phases import AT_REST, CONVERGED, FINISHED, NOT_CONVERGED, STOPPED, PhaseRecord, default_phases
+from warpsph.phases import AT_REST, CONVERGED, FINISHED, NOT_CONVERGED, STOPPED, UNSTABLE, PhaseRecord, default_phases
 from warpsph.phases import FactorSearch, phase_scene, reduced_strength
 from warpsph.probes import Probes
 from warpsph.scene import FAILURE_DISPLACEMENT, IMPLICIT_PHASE_KINDS, Phase, Scene
@@ -953,6 +953,8 @@ class Run:
             self.records[-1].outcome = STOPPED
         except SimulationError as e:
             message = str(e)
+            self.records[-1].last_step, self.records[-1].end_time = self.step_index, self.time
+            self.records[-1].outcome = UNSTABLE
             raise
         except KeyboardInterrupt:
             status, message = "interrupted", f"interrupted at step {self.step_index}, t = {self.time:.6g} s"

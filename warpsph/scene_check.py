@@ -576,6 +576,8 @@ PLAUSIBLE_DENSITY = (500.0, 5000.0)
 """kg/m³: soils, rocks and their saturated mixtures lie between."""
 PLAUSIBLE_MODULUS, PLAUSIBLE_COHESION = 1e5, 100.0
 """Pa: below these a value is likely in kPa (Young's modulus) or kPa (cohesion)."""
+RADIAN_LIKE_ANGLE = math.pi / 2
+"""Degrees: a friction or dilatancy angle above zero and at most this is likely in radians."""
 
 
 def _warn_implausible(material: Material, key: str) -> None:
@@ -590,6 +592,11 @@ def _warn_implausible(material: Material, key: str) -> None:
               "than any soil (Pa, not kPa or MPa)")  # fmt: skip
     if material.model == "viscoplastic" and 0.0 < material.cohesion < PLAUSIBLE_COHESION:
         _warn(f"{key}.cohesion = {show(material.cohesion)} Pa is below {PLAUSIBLE_COHESION:g} Pa (Pa, not kPa)")
+    for name in ("friction_angle", "dilatancy_angle"):
+        angle = getattr(material, name) if material.model == "viscoplastic" else 0.0
+        if 0.0 < angle <= RADIAN_LIKE_ANGLE:
+            _warn(f"{key}.{name} = {show(angle)}° is at most {RADIAN_LIKE_ANGLE:.3g}°, like an angle in radians "
+                  f"({math.degrees(angle):.3g}° if it is one): angles are in degrees")  # fmt: skip
 
 
 def _warn(message: str) -> None:

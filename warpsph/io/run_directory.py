@@ -2,7 +2,8 @@
 when asked (docs/output.md, *The run directory*).
 
 A run holds an exclusive lock on ``.warpsph.lock`` in the directory while it writes (``fcntl.flock``:
-the system drops it when the process ends, however it ends, so a killed run leaves no stale lock).
+the system drops it when the process ends, however it ends, so a killed run leaves no stale lock; a
+run that ends removes the file).
 A new run into a directory that holds output refuses unless ``overwrite`` (then the output goes
 first) or ``resume``.
 """
@@ -63,10 +64,9 @@ class RunDirectory:
                 shutil.rmtree(target) if target.is_dir() else target.unlink()
 
     def release(self) -> None:
-        """Free the directory for the next run (the lock file stays, empty)."""
+        """Free the directory for the next run: the lock file goes, then its lock."""
         if not self._file.closed:
-            self._file.seek(0)
-            self._file.truncate()
+            (self.path / LOCK).unlink(missing_ok=True)
             self._file.close()  # closing drops the flock
 
 

@@ -13,10 +13,10 @@ from warpsph.errors import InputError, SceneError
 EXTRA_HINT = "warpsph study needs dask.distributed and matplotlib: pip install 'warpsph[study]'"
 
 
-def add_parser(sub) -> None:
+def add_parser(sub, formatter_class=argparse.ArgumentDefaultsHelpFormatter) -> None:
     """Add the ``study`` sub-command to the ``warpsph`` parser's sub-parsers ``sub``."""
     p = sub.add_parser("study", help="sweep settings of closed-form scenes: error against run time (docs/accuracy.md)",
-                       formatter_class=argparse.ArgumentDefaultsHelpFormatter)  # fmt: skip
+                       formatter_class=formatter_class)  # fmt: skip
     p.add_argument("studies", type=Path, nargs="+", help="study files (TOML, see docs/accuracy.md)")
     p.add_argument("--out", type=Path, default=Path("runs/studies"),
                    help="reports go to OUT/<study name>/, one record per run to OUT/<study name>/runs/")
