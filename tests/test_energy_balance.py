@@ -7,6 +7,7 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+import warp as wp
 
 from warpsph.builder import build
 from warpsph.errors import SimulationError
@@ -14,7 +15,9 @@ from warpsph.io import load_checkpoint, load_results
 from warpsph.runner import ENERGY_GROWTH, ENERGY_MADE_LIMIT, GUARD_WINDOW, Run
 from warpsph.scene_toml import load_scene
 from warpsph.solver import Solver
-from warpsph.stages.energy import balance_warnings, energy_balance, energy_made
+from warpsph.stages.energy import (
+    GRAVITY, LEDGER, NOT_FOUND, SIGNS, _growth_kernel, balance_warnings, energy_balance, energy_made,
+)
 
 SCENES = Path(__file__).resolve().parents[1] / "scenes"
 
@@ -68,6 +71,31 @@ def test_energy_made_counts_only_energy_from_nothing():
     assert energy_made(balance, 0.5, start) == pytest.approx(0.125)  # made since the error was 0.5 J
     assert energy_made({**balance, "error": -1.0}, 0.0, start) == 0.0  # energy lost is not made
     assert energy_made(balance, 0.0, np.zeros(10)) == pytest.approx(0.5)  # of the 2 J turned over
+
+
+def test_the_device_guard_measures_as_energy_made():
+    """The guard's window on the device (:class:`EnergyGuard`'s kernel) measures the energy made as
+    :func:`energy_made` does, and keeps the first step at which three windows grew past its limits: the
+    kinetic energy rises by 1 J over 4 J stored while gravity gives 1 J less the balance's error."""
+    wp.init()
+    start = np.zeros(10)
+    start[:2] = (1.0, 3.0)
+    arrays = [wp.array(a, dtype=wp.float64, device="cpu") for a in (start, SIGNS, np.zeros(5), np.zeros(3))]
+    start_d, signs, progress, what = arrays
+    found = wp.array([NOT_FOUND], dtype=wp.int32, device="cpu")
+    errors = [0.1, 0.3, 0.7, 1.5]  # the balance's error after each window [J]: windows of 0.1, 0.2, 0.4, 0.8 J
+    for step, error in enumerate(errors, start=1):
+        now = start.copy()
+        now[0] += 1.0
+        now[LEDGER + GRAVITY] = 1.0 - error
+        wp.launch(_growth_kernel, 1, [step, wp.array(now, dtype=wp.float64, device="cpu"), start_d, signs,
+                                      wp.float64(0.05), wp.float64(2.0), progress, found, what], device="cpu")  # fmt: skip
+        since = errors[step - 2] if step > 1 else 0.0
+        made = energy_made(energy_balance(now, start), since, start)
+        assert progress.numpy()[3] == pytest.approx(error - since)
+        if step == 3:
+            assert what.numpy() == pytest.approx([0.4, made, 4.0])  # 0.4 J, 10 % of the 4 J stored, 4 × 0.1 J
+    assert int(found.numpy()[0]) == 3
 
 
 def test_a_run_writes_its_balance_and_resumes_it(tmp_path):

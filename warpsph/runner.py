@@ -46,7 +46,7 @@ from warpsph.probes import Probes
 from warpsph.scene import FAILURE_DISPLACEMENT, IMPLICIT_PHASE_KINDS, Phase, Scene
 from warpsph.solver import Solver
 from warpsph.stages.consolidation import FixedStressSplit
-from warpsph.stages.energy import balance_warnings, energy_balance, energy_made
+from warpsph.stages.energy import EnergyGuard, balance_warnings, energy_balance
 from warpsph.stages.groundwater import GroundwaterFlow
 from warpsph.stages.guard import Guard
 
@@ -278,6 +278,9 @@ class Run:
         self.scratch = self.model.state()
         self.scratch.assign(self.state)
         self.guard = Guard(self.model, phase_scene_.speed_limit)
+        self._checked = None
+        """The step the guards were last read at."""
+        self.energy_guard = EnergyGuard(self.solver.energy, ENERGY_MADE_LIMIT, ENERGY_GROWTH)
         self.probes = Probes(self.model)
         self._probe_index = None  # the probes' rows on the device, made at the first sample
         self.dt = phase_scene_.time_step
@@ -359,12 +362,18 @@ class Run:
         if "phases" in ck.meta:
             self.records = [PhaseRecord(**r) for r in json.loads(ck.meta["phases"])]
             self.loop = json.loads(ck.meta["loop"])
+            if "energy_start" in self.loop:
+                self.energy_guard.begin(self.loop["energy_start"], self.loop["energy_error"],
+                                        self.loop["energy_windows"])  # fmt: skip
             self.phase_start_step, self.phase_start_time = self.records[-1].first_step, self.records[-1].start_time
         self.scratch.assign(self.state)
         self.step_index = self.checkpoint_step = ck.step
         self.resumed = True
 
     def _checkpoint(self) -> None:
+        self._check()
+        if "energy_start" in self.loop:
+            self.loop["energy_error"], self.loop["energy_windows"] = self.energy_guard.progress_so_far()
         arrays = {name: arr.numpy() for name, arr in self.state.arrays().items()}
         if self.solver.layout is not None:
             arrays.update(self.solver.layout.arrays())
@@ -498,30 +507,41 @@ class Run:
             self.solver.damping.read()
 
     def _check(self) -> None:
-        bad, point = self.guard.find(self.state)
-        if bad is None:
-            if point is not None:
-                q = self.state.virtual_q.numpy()[point]
-                density = float(self.state.virtual_density.numpy()[point])
-                self._unstable(f"virtual point {point} at {np.array2string(q, precision=4)} m has the density "
-                               f"{density:.4g} kg/m³")  # fmt: skip
+        """Read what the run guards marked on the device since the last read; stop the run at the first
+        step they marked, naming what was wrong then (once a step)."""
+        if self._checked == self.step_index:
             return
-        f = host_fields(self.model, self.state)
-        broken = [f"a non-finite {name.replace('_', ' ')}" for name in ("position", "velocity", "stress", "density",
-                  "pore_pressure") if name in f and not np.all(np.isfinite(f[name][bad]))]  # fmt: skip
-        if f["density"][bad] <= 0.0:
-            broken.append(f"a non-positive density ({f['density'][bad]:.4g} kg/m³)")
+        self._checked = self.step_index
+        flagged = self.guard.read()
+        grown = self.energy_guard.read() if "energy_start" in self.loop else None
+        if grown is not None and (flagged is None or grown[0] < flagged.step):
+            step, window, made, ratio = grown
+            self._unstable(f"the energy made from nothing grew over three windows of {GUARD_WINDOW} steps, to "
+                           f"{window:.4g} J in the last, {100 * made:.3g} % of the energy in play (limit "
+                           f"{100 * ENERGY_MADE_LIMIT:g} %) and {ratio:.3g} times the first's (limit "
+                           f"{ENERGY_GROWTH:g})", step)  # fmt: skip
+        if flagged is None:
+            return
+        where = np.array2string(flagged.position, precision=4)
+        if flagged.particle is None:
+            self._unstable(f"virtual point {flagged.point} at {where} m has the density {flagged.density:.4g} kg/m³",
+                           flagged.step)  # fmt: skip
+        broken = [f"a non-finite {name.replace('_', ' ')}" for name in flagged.not_finite]
+        if not flagged.density > 0.0 and "density" not in flagged.not_finite:
+            broken.append(f"a non-positive density ({flagged.density:.4g} kg/m³)")
         if broken:
             what = f"has {' and '.join(broken)}"
         else:
-            what = (f"moves at {float(np.linalg.norm(f['velocity'][bad])):.4g} m/s, beyond "
-                    f"{self.phase_scene.speed_limit_text}")  # fmt: skip
-        self._unstable(f"particle {bad} at {np.array2string(f['position'][bad], precision=4)} m {what}")
+            what = f"moves at {flagged.speed:.4g} m/s, beyond {self.phase_scene.speed_limit_text}"
+        self._unstable(f"particle {flagged.particle} at {where} m {what}", flagged.step)
 
-    def _unstable(self, what: str):
+    def _unstable(self, what: str, step: int | None = None):
+        """Stop the run, unstable at ``step`` (default: this one) of the current phase."""
+        step = self.step_index if step is None else step
         where = f" (phase {self.phase.name})" if self.staged else ""
+        time = self.time - (self.step_index - step) * self.dt
         raise SimulationError(
-            f"unstable at step {self.step_index}{where}, t = {self.time:.6g} s: {what}; the last good checkpoint "
+            f"unstable at step {step}{where}, t = {time:.6g} s: {what}; the last good checkpoint "
             f"(step {self.checkpoint_step}) and the frames written are kept in {self.out}")
 
     def _step(self) -> None:
@@ -529,35 +549,21 @@ class Run:
         self.state, self.scratch = self.scratch, self.state
         self.step_index += 1
         self.summary.steps += 1
-        self._check()
-        if (self.step_index - self.phase_start_step) % GUARD_WINDOW == 0:
-            self._check_energy()
+        self.guard.mark(self.state, self.step_index)
+        k = self.step_index - self.phase_start_step
+        if k % GUARD_WINDOW == 0 and "energy_start" in self.loop:
+            self.energy_guard.mark(self.state, self.step_index)
+        if k % CHECK_EVERY == 0:
+            self._check()
+            if self.phase.kind != "safety" and "energy_start" in self.loop:  # a trial's is written with its frame
+                self._energy_series(self._energy_balance())
         self._record_pressure_solve()
-
-    def _check_energy(self) -> None:
-        """Stop the run once the energy made by its last three ``GUARD_WINDOW`` windows of steps rose from
-        each to the next, by more than ``ENERGY_GROWTH`` over the three, to more than
-        ``ENERGY_MADE_LIMIT`` of the energy in play in the last; every ``CHECK_EVERY`` steps write the
-        balance as series."""
-        balance = self._energy_balance()
-        if balance is None:
-            return
-        since = self.loop.get("energy_error", 0.0)
-        made = energy_made(balance, since, self.loop["energy_start"])
-        windows = [*self.loop.get("energy_windows", [])[-2:], balance["error"] - since]
-        self.loop["energy_error"], self.loop["energy_windows"] = balance["error"], windows
-        if self.phase.kind != "safety" and (self.step_index - self.phase_start_step) % CHECK_EVERY == 0:
-            self._energy_series(balance)  # a trial's balance is written with its frame
-        rising = len(windows) == 3 and 0.0 < windows[0] < windows[1] < windows[2]
-        if made > ENERGY_MADE_LIMIT and rising and windows[2] > ENERGY_GROWTH * windows[0]:
-            self._unstable(f"the energy made from nothing grew over three windows of {GUARD_WINDOW} steps, to "
-                           f"{windows[2]:.4g} J in the last, {100 * made:.3g} % of the energy in play (limit "
-                           f"{100 * ENERGY_MADE_LIMIT:g} %) and {windows[2] / windows[0]:.3g} times the first's "
-                           f"(limit {ENERGY_GROWTH:g})")  # fmt: skip
 
     def _output(self, last: bool, frame_every: int, ck_every: int) -> None:
         """Frames, probe samples and checkpoints at their cadence (steps since the phase's start)."""
         k = self.step_index - self.phase_start_step
+        if k % frame_every == 0 or last or self.step_index % self.phase_scene.output.probe_every == 0:
+            self._check()  # nothing is written from a step the guards marked
         if k % frame_every == 0 or last:
             self._write_frame()
         elif self.step_index % self.phase_scene.output.probe_every == 0:
@@ -859,6 +865,8 @@ class Run:
         first = self.step_index
         self.loop.pop("ratio", None)
         self._start_energy()
+        self.guard.clear()
+        self._checked = None
         try:
             converged, ratio = self._equilibrate(progress, first, output=False, start=(positions, limit))
             moved = largest_displacement(self.state.particle_q, positions)
@@ -871,6 +879,8 @@ class Run:
         self.scratch.assign(self.state)
         self.step_index = first
         self._start_energy()
+        self.guard.clear()
+        self._checked = None
         self.model.material_plasticity = plastic_materials(spec, materials, device)
         return TrialOutcome(factor, converged, ratio, steps, moved, frame)
 
@@ -884,6 +894,7 @@ class Run:
         if self._books_energy:
             self.loop["energy_start"] = self.solver.energy.sums(self.state).tolist()
             self.loop["energy_error"], self.loop["energy_windows"] = 0.0, []
+            self.energy_guard.begin(self.loop["energy_start"])
 
     def _energy_report(self) -> dict:
         """The phase's energy balance at its end and one line per check it fails (:func:`balance_warnings`;

@@ -26,7 +26,7 @@ from stability_tools import SCENES, SCHEMES, march
 from warpsph.builder import build
 from warpsph.errors import SimulationError
 from warpsph.io import load_checkpoint, load_results
-from warpsph.runner import Run
+from warpsph.runner import CHECK_EVERY, Run
 from warpsph.scene_toml import load_scene
 from warpsph.stages.guard import LARGEST_SPEED, Guard
 
@@ -125,3 +125,18 @@ def test_velocity_limit_through_the_command_line(scheme, tmp_path):
     step = step_in(lines[0])
     assert step == first_bad_step(scene, limit, step + 1)
     assert load_checkpoint(tmp_path / "out" / "checkpoint.h5").step < step
+
+
+def test_the_guards_read_the_device_only_at_the_output_cadence(tmp_path, monkeypatch):
+    """The run guards mark bad steps on the device every step and are read every ``CHECK_EVERY`` steps
+    and before each write (frames, probe samples, checkpoints): 200 steps with frames and probe samples
+    every 50 read them at most 20 + 4 + 2 times, not 200."""
+    scene = wave_column("two_set")
+    scene.output.frame_interval = 50 * scene.time_step
+    scene.output.probe_every = 50
+    reads = []
+    original = Guard.read
+    monkeypatch.setattr(Guard, "read", lambda self: reads.append(1) or original(self))
+    assert Run(scene, tmp_path, end_time=200 * scene.time_step).run().status == "finished"
+    print(f"\n200 steps: {len(reads)} reads of the guard's flags")
+    assert len(reads) <= 200 // CHECK_EVERY + 200 // 50 + 2

@@ -134,9 +134,9 @@ class EnergyLedger:
                 so.particle_stress, pressure_in if pore else self._no_pressure,
                 pressure_out if pore else self._no_pressure, int(pore), self.ledger], m.device)  # fmt: skip
 
-    def sums(self, state: State) -> np.ndarray:
+    def sum_on_device(self, state: State) -> wp.array:
         """(``LEDGER`` + ``CHANNELS``,) sums over the owned particles of ``state``, made on the device and
-        read at once: the kinetic energy ½ m v², the strain energy V ψ(σ′) (ψ the linear law's elastic
+        left there: the kinetic energy ½ m v², the strain energy V ψ(σ′) (ψ the linear law's elastic
         energy density, :func:`~warpsph.physics.elastic.strain_energy_function`, V = m/ρ), then the
         ledger's columns [J, J/m in 2D]."""
         m = self.model
@@ -144,7 +144,106 @@ class EnergyLedger:
         launch(_sum_kernel(m.spec), m.particle_count,
                [m.particle_mass, state.particle_v, state.particle_stress, state.particle_density, m.particle_material,
                 m.material_lambda, m.material_shear, self.ledger, self._sums], m.device)  # fmt: skip
-        return self._sums.numpy().copy()  # on the CPU, numpy() is a view of the device array
+        return self._sums
+
+    def sums(self, state: State) -> np.ndarray:
+        """:meth:`sum_on_device`, read at once."""
+        return self.sum_on_device(state).numpy().copy()  # on the CPU, numpy() is a view of the device array
+
+
+SIGNS = np.zeros(LEDGER + CHANNELS)
+"""+1 for the entries of :meth:`EnergyLedger.sums` held (stored and lost), −1 for the works given: the
+balance's error is Σ sign × change."""
+SIGNS[[KINETIC, STRAIN, *(LEDGER + k for k in DISSIPATIONS.values())]] = 1.0
+SIGNS[[LEDGER + k for k in WORKS.values()]] = -1.0
+NOT_FOUND = wp.constant(2**31 - 1)
+
+
+@wp.kernel(enable_backward=False)
+def _growth_kernel(
+    step: int,
+    sums: wp.array(dtype=wp.float64),
+    start: wp.array(dtype=wp.float64),
+    signs: wp.array(dtype=wp.float64),
+    limit: wp.float64,
+    growth: wp.float64,
+    progress: wp.array(dtype=wp.float64),
+    found: wp.array(dtype=wp.int32),
+    what: wp.array(dtype=wp.float64),
+):
+    """One window of the guard of :class:`EnergyGuard`: ``progress`` = [error at the window's start,
+    the energy made by the last three windows, windows counted]; ``found`` the first step it grew at
+    and ``what`` [energy made by the last window, its fraction of the energy in play, over the first's]."""
+    error = wp.float64(0.0)
+    held = wp.float64(0.0)
+    given = wp.float64(0.0)
+    for k in range(sums.shape[0]):
+        change = sums[k] - start[k]
+        error += signs[k] * change
+        if signs[k] > wp.float64(0.0):
+            held += wp.abs(change)
+        if signs[k] < wp.float64(0.0):
+            given += wp.abs(change)
+    scale = wp.max(wp.max(held, given), start[0] + start[1])
+    window = error - progress[0]
+    made = wp.float64(0.0)
+    if scale > wp.float64(0.0):
+        made = wp.max(window, wp.float64(0.0)) / scale
+    progress[0] = error
+    progress[1] = progress[2]
+    progress[2] = progress[3]
+    progress[3] = window
+    progress[4] = progress[4] + wp.float64(1.0)
+    w0 = progress[1]
+    w1 = progress[2]
+    rising = progress[4] >= wp.float64(3.0) and w0 > wp.float64(0.0) and w0 < w1 and w1 < window
+    if found[0] == NOT_FOUND and made > limit and rising and window > growth * w0:
+        found[0] = step
+        what[0] = window
+        what[1] = made
+        what[2] = window / w0
+
+
+class EnergyGuard:
+    """The run guard's check of the energy balance, on the device with no read (:meth:`mark`): after
+    three windows of steps each of which made more energy from nothing than the one before, the last
+    more than ``limit`` of the energy in play and more than ``growth`` times the first, it keeps the
+    step; :meth:`read` reads it at the run's output cadence."""
+
+    def __init__(self, ledger: EnergyLedger, limit: float, growth: float):
+        device = ledger.model.device
+        self.ledger, self.limit, self.growth = ledger, limit, growth
+        self.start = wp.zeros(LEDGER + CHANNELS, dtype=wp.float64, device=device)
+        self.signs = wp.array(SIGNS, dtype=wp.float64, device=device)
+        self.progress = wp.zeros(5, dtype=wp.float64, device=device)
+        self.found = wp.zeros(1, dtype=wp.int32, device=device)
+        self.what = wp.zeros(3, dtype=wp.float64, device=device)
+
+    def begin(self, start, since: float = 0.0, windows=()) -> None:
+        """Measure from the sums ``start``; a resumed run's error so far and its last windows' energies."""
+        windows = list(windows)[-3:]
+        self.start.assign(np.asarray(start, dtype=np.float64))
+        self.progress.assign(np.array([since, *([0.0] * (3 - len(windows))), *windows, len(windows)], dtype=np.float64))
+        self.found.fill_(NOT_FOUND)
+
+    def mark(self, state: State, step: int) -> None:
+        """Check the windows up to the state after step ``step`` on the device."""
+        sums = self.ledger.sum_on_device(state)
+        wp.launch(_growth_kernel, 1, [step, sums, self.start, self.signs, wp.float64(self.limit),
+                                      wp.float64(self.growth), self.progress, self.found, self.what],
+                  device=self.ledger.model.device)  # fmt: skip
+
+    def read(self) -> tuple[int, float, float, float] | None:
+        """(the step the energy made grew at, what the last window made [J], its fraction of the energy
+        in play, its ratio to the first window's), or None."""
+        step = int(self.found.numpy()[0])
+        return None if step == NOT_FOUND else (step, *map(float, self.what.numpy()))
+
+    def progress_so_far(self) -> tuple[float, list[float]]:
+        """(the balance's error at the last window's end, the last windows' energies), for a checkpoint."""
+        p = self.progress.numpy()
+        count = int(min(p[4], 3))
+        return float(p[0]), [float(w) for w in p[4 - count:4]]
 
 
 def energy_balance(now: np.ndarray, start: np.ndarray) -> dict[str, float]:
