@@ -330,3 +330,17 @@ def test_a_phase_the_guard_stops_is_recorded_unstable(tmp_path):
     phases = warpsph.load_results(tmp_path / "results.h5").phases
     assert [(p["name"], p["outcome"]) for p in phases] == [("initial", "converged"), ("surcharge", "unstable")]
     assert phases[1]["last_step"] > phases[1]["first_step"] >= 0
+
+
+def test_each_phase_reports_as_it_ends(tmp_path):
+    """``Run.run(phase_done=...)`` hands each phase's result over as the phase ends, before the next
+    phase takes a step (the command line prints it then, not when the whole run ends)."""
+    from warpsph.runner import Run
+
+    run = Run(staged_scene(), tmp_path, device="cpu")
+    reported = []
+    run.run(phase_done=lambda p: reported.append((p["name"], p["outcome"], run.step_index)))
+    phases = warpsph.load_results(tmp_path / "results.h5").phases
+    assert [(name, outcome) for name, outcome, _ in reported] == [(p["name"], p["outcome"]) for p in phases]
+    assert [step for *_, step in reported] == [p["last_step"] for p in phases]
+    assert reported[1][2] < phases[2]["last_step"]

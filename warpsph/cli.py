@@ -140,24 +140,27 @@ def _run(args) -> int:
         bar.set_postfix_str(f"{phase}step {step}{solve}{ratio}", refresh=False)
         bar.update((min(t, run.end_time) if total else t) - bar.n)
 
+    def phase_done(p: dict) -> None:
+        """Print a phase's result as it ends (above the progress bar), then its energy checks' warnings."""
+        if run.staged:
+            criterion = {"equilibrium": "unbalanced-force ratio", "safety": "factor of safety",
+                         "dynamic": "kinetic energy / peak"}.get(p["kind"])  # fmt: skip
+            reached = f", {criterion} {p['criterion']:.4g}" if criterion and p["criterion"] == p["criterion"] else ""
+            if p["kind"] == "safety" and p["outcome"] == "converged":
+                reached += f" ± {run.phase.factor_tolerance:g}"
+            bar.write(f"phase {p['name']} ({p['kind']}): {p['outcome']} after {p['steps']} steps{reached}",
+                      file=sys.stdout)  # fmt: skip
+            for factor, stood, ratio, steps, moved in p.get("trials", []):
+                bar.write(f"  trial F = {factor:.4g}: {'stands' if stood else 'fails'} (ratio {ratio:.3g} after "
+                          f"{steps} steps, largest displacement {moved:.3g} m)", file=sys.stdout)  # fmt: skip
+        where = f"phase {p['name']}: " if run.staged else ""
+        for line in p["energy_warnings"]:  # the energy balance's checks (docs/method.md, Energy balance)
+            bar.write(f"warpsph: warning: {where}{line}", file=sys.stderr)
+
     try:
-        s = run.run(progress=progress)
+        s = run.run(progress=progress, phase_done=phase_done)
     finally:
         bar.close()
-    for i, p in enumerate(s.phases if run.staged else ()):
-        criterion = {"equilibrium": "unbalanced-force ratio", "safety": "factor of safety",
-                     "dynamic": "kinetic energy / peak"}.get(p["kind"])  # fmt: skip
-        reached = f", {criterion} {p['criterion']:.4g}" if criterion and p["criterion"] == p["criterion"] else ""
-        if p["kind"] == "safety" and p["outcome"] == "converged":
-            reached += f" ± {run.phases[i].factor_tolerance:g}"
-        print(f"phase {p['name']} ({p['kind']}): {p['outcome']} after {p['steps']} steps{reached}")
-        for factor, stood, ratio, steps, moved in p.get("trials", []):
-            print(f"  trial F = {factor:.4g}: {'stands' if stood else 'fails'} (ratio {ratio:.3g} after {steps} steps, "
-                  f"largest displacement {moved:.3g} m)")
-    for p in s.phases:  # the energy balance's checks (docs/method.md, Energy balance)
-        where = f"phase {p['name']}: " if run.staged else ""
-        for line in p["energy_warnings"]:
-            print(f"warpsph: warning: {where}{line}", file=sys.stderr)
     print(f"done: {s.steps} steps to t = {s.final_time:.6g} s in {s.wall_seconds:.2f} s "
           f"({s.particle_steps_per_second:.3g} particle-steps/s), compile {s.compile_seconds:.2f} s, "
           f"{s.frames} frames")  # fmt: skip

@@ -912,10 +912,11 @@ class Run:
         return float(np.max(positions.max(axis=0) - positions.min(axis=0)))
 
     # -- the loop ---------------------------------------------------------------------------------
-    def run(self, progress=None) -> RunSummary:
+    def run(self, progress=None, phase_done=None) -> RunSummary:
         """Run the phases in turn, writing frames, probes and checkpoints; return the summary.
 
-        ``progress(time, step)`` is called after every step when given.
+        ``progress(time, step)`` is called after every step when given, and ``phase_done(result)`` as
+        each phase ends, with its entry of the summary's ``phases``.
         """
         status, message = "failed", ""
         start = time.perf_counter()
@@ -941,6 +942,8 @@ class Run:
                                             **self._energy_report()})  # fmt: skip
                 if self.staged:
                     self.results.write_phases([asdict(r) for r in self.records])
+                if phase_done is not None:
+                    phase_done(self.summary.phases[-1])
                 if outcome in (STOPPED, NOT_CONVERGED):
                     status = "stopped" if outcome == STOPPED else "not converged"
                     break
