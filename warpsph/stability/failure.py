@@ -14,8 +14,8 @@ import warpsph
 from warpsph.errors import SimulationError
 from warpsph.scene import Body, Boundary, Material, Phase, Probe, Scene, Simulation
 from warpsph.stability.board import Measure, case, configure, without_stabilisation
-from warpsph.study.metrics import (FOOTING_PRESSURE, FOOTING_SETTLEMENT, FOOTING_WINDOW, _footing,
-                                   _footing_end, footing_plateau, footing_scene)  # fmt: skip
+from warpsph.study.metrics import (FOOTING_PRESSURE, FOOTING_SETTLEMENT, FOOTING_WINDOW, footing_end,
+                                   footing_parts, footing_plateau, footing_scene)  # fmt: skip
 from warpsph.validation.report import shipped_scene
 
 G = 9.81
@@ -82,7 +82,7 @@ def prandtl_footing(options: Mapping[str, object]) -> list[Measure]:
     scene = without_stabilisation(shipped_scene("footing_prandtl"))
     scene.simulation.dx = FOOTING_DX
     scene = footing_scene(configure(scene, options))
-    end = _footing_end(scene)
+    end = footing_end(scene)
     stopped, energy = "", None
     with tempfile.TemporaryDirectory(prefix="warpsph-footing-") as out:
         try:
@@ -99,7 +99,7 @@ def prandtl_footing(options: Mapping[str, object]) -> list[Measure]:
     finite = np.asarray(settlement, dtype=float)[np.isfinite(settlement)]
     reached = 1e3 * float(finite.max()) if finite.size else 0.0
     plateau, spread, count = footing_plateau(settlement, pressure, FOOTING_WINDOW)
-    prandtl = (2.0 + math.pi) * _footing(scene)[0].cohesion
+    prandtl = (2.0 + math.pi) * footing_parts(scene)[0].cohesion
     signed = plateau / prandtl - 1.0
     last = f"last sample t = {times[-1]:.4g} s" if len(times) else "no sample"
     where = f"stopped ({last} of {end:.4g} s): {stopped}" if stopped else f"ran to t = {end:.4g} s"

@@ -191,7 +191,7 @@ def footing_plateau(settlement, pressure, window: tuple[float, float]) -> tuple[
     return float(np.mean(pressure[inside])), float(np.std(pressure[inside])), int(inside.sum())
 
 
-def _footing(scene: Scene):
+def footing_parts(scene: Scene):
     """(soil material, footing body, velocity load, pressure probe, settlement probe) of a footing
     scene; otherwise :class:`SceneError`."""
     need = ("prandtl_footing needs the footing scene's layout (scenes/footing_prandtl.toml): plasticity on, a box "
@@ -225,7 +225,7 @@ def footing_scene(scene: Scene) -> Scene:
     from warpsph.lattice import fill_body
 
     scene = copy.deepcopy(scene)
-    _, footing, load, pressure, settlement = _footing(scene)
+    _, footing, load, pressure, settlement = footing_parts(scene)
     dx = scene.simulation.dx
     half_width = float(fill_body(footing, dx, scene.simulation.dim)[:, 0].max()) + 0.5 * dx
     pressure.scale = 1.0 / half_width
@@ -240,12 +240,12 @@ def footing_scene(scene: Scene) -> Scene:
 
 
 def _check_footing(scene: Scene) -> None:
-    _footing(scene)
+    footing_parts(scene)
 
 
-def _footing_end(scene: Scene) -> float:
+def footing_end(scene: Scene) -> float:
     """Time [s] at which the prescribed settlement reaches the top of the window."""
-    _, _, load, _, _ = _footing(scene)
+    _, _, load, _, _ = footing_parts(scene)
     speed = abs(load.velocity[1])
     ramp = load.time_function.duration if load.time_function.kind == "ramp" else 0.0
     top = FOOTING_WINDOW[1]
@@ -259,7 +259,7 @@ def _measure_footing(scene: Scene, device: str) -> Measurement:
     from warpsph.runner import host_fields
 
     scene = footing_scene(scene)
-    soil, _, _, _, _ = _footing(scene)
+    soil, _, _, _, _ = footing_parts(scene)
     limit = (2.0 + math.pi) * soil.cohesion
     probes: list[Probes] = []
 
@@ -269,7 +269,7 @@ def _measure_footing(scene: Scene, device: str) -> Measurement:
         values = probes[0].sample(host_fields(model, state))
         return values[FOOTING_SETTLEMENT], values[FOOTING_PRESSURE]
 
-    steps = int(math.ceil(_footing_end(scene) / scene.time_step - 1e-9))
+    steps = int(math.ceil(footing_end(scene) / scene.time_step - 1e-9))
     run = run_sampled(scene, [*range(PROBE_EVERY, steps, PROBE_EVERY), steps], sample, device)
     settlement, pressure = zip(*run.samples) if run.samples else ((), ())
     window = FOOTING_WINDOW
@@ -291,4 +291,4 @@ register(Metric(
                 "against (2 + π) c_u",
     errors={"limit_load_error": "|plateau / ((2 + π) c_u) − 1|, plateau the mean of footing_pressure over the "
                                 "settlement window (metrics.FOOTING_WINDOW)"},
-    check=_check_footing, end_time=_footing_end, measure=_measure_footing))  # fmt: skip
+    check=_check_footing, end_time=footing_end, measure=_measure_footing))  # fmt: skip
