@@ -29,7 +29,7 @@ def test_validate_estimates_the_run(scenes_dir, tmp_path, capsys):
     assert main(["validate", str(scenes_dir / "wave_column.toml")]) == 0
     out = capsys.readouterr().out
     assert "404 particles, 300 virtual points, dt = 0.0003571 s" in out
-    assert "197 steps, 15 frames: about " in out and "ms per step measured" in out and "MB of output" in out
+    assert "197 steps, 16 frames: about " in out and "ms per step measured" in out and "MB of output" in out
     long = tmp_path / "long.toml"
     long.write_text((scenes_dir / "wave_column.toml").read_text().replace("end_time = 0.07", "end_time = 5000.0"))
     assert main(["validate", str(long)]) == 0
@@ -67,6 +67,23 @@ def test_run_writes_results(scenes_dir, tmp_path):
     results = load_results(tmp_path / "results.h5")
     assert results.attrs["format"] == "warpsph-results" and len(results) >= 2
     assert results.scene_text == (scenes_dir / "wave_column.toml").read_text()
+
+
+def test_the_estimate_counts_what_a_run_writes_and_warns_of_a_long_or_large_one(scenes_dir, tmp_path):
+    """The frames counted are those the run writes (the first, every frame_interval, the last); a plan
+    counted at step caps says so and why; a run of more than a day or 10 GB is warned of."""
+    from warpsph.io import load_results
+    from warpsph.planning import RunPlan, count_steps, plan
+    from warpsph.scene_toml import load_scene
+
+    scene = load_scene(scenes_dir / "wave_column.toml")
+    warpsph("run", scenes_dir / "wave_column.toml", "--out", tmp_path / "run", "--no-progress")
+    assert count_steps(scene)[2] == len(load_results(tmp_path / "run" / "results.h5").times) == 16
+    capped = plan(load_scene(scenes_dir / "slope_fos.toml"), "cpu", timed=False).lines()[1]
+    assert capped.startswith("at most ") and "counted at their step caps, max_steps" in capped
+    lines = RunPlan(10**6, 10**6, 1e-4, 10**8, False, 10**4, 1e-3, 2e10).lines()
+    assert lines[2].startswith("warning: the run may take 27.8 h on this machine: coarsen simulation.dx")
+    assert lines[3] == "warning: the run may write 20 GB: raise output.frame_interval or write fewer output.fields"
 
 
 def test_help_shows_defaults():

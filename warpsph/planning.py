@@ -15,6 +15,8 @@ TIMED_STEPS, TIMED_SECONDS = 20, 2.0
 """The estimate times steps until either is reached, after one compiling step."""
 MANY_STEPS = 10_000_000
 """A run planned for more steps than this gets a warning: mostly a unit typed wrong."""
+LONG_RUN, LARGE_OUTPUT = 86400.0, 10e9
+"""A run estimated to take longer than this [s], or to write more than this [B], gets a warning."""
 _COMPONENTS = {"position": 3, "id": 1, "velocity": 3, "displacement": 3, "stress": 6, "pore_pressure": 1,
                "plastic_strain": 1, "darcy_velocity": 3, "saturation": 1}  # fmt: skip
 
@@ -43,10 +45,19 @@ class RunPlan:
 
     def lines(self) -> list[str]:
         bound = "at most " if self.capped else ""
-        time = (f"about {_duration(self.seconds)} on this machine ({1e3 * self.seconds_per_step:.3g} ms per step "
-                "measured), " if self.seconds_per_step > 0 else "")  # fmt: skip
+        time = (f"{bound or 'about '}{_duration(self.seconds)} on this machine ({1e3 * self.seconds_per_step:.3g} "
+                "ms per step measured), " if self.seconds_per_step > 0 else "")  # fmt: skip
+        why = (" (the equilibrium and safety phases counted at their step caps, max_steps, which they stop short "
+               "of once they converge)" if self.capped else "")  # fmt: skip
         out = [f"{self.particles} particles, {self.virtual_points} virtual points, dt = {self.time_step:.4g} s",
-               f"{bound}{self.steps:,} steps, {self.frames} frames: {time}about {_size(self.output_bytes)} of output"]
+               f"{bound}{self.steps:,} steps, {self.frames} frames: {time}{bound or 'about '}"
+               f"{_size(self.output_bytes)} of output{why}"]
+        if self.seconds > LONG_RUN:
+            out.append(f"warning: the run may take {_duration(self.seconds)} on this machine: coarsen simulation.dx, "
+                       "shorten the phases or simulation.end_time, or run it on a GPU (--device cuda:0)")
+        if self.output_bytes > LARGE_OUTPUT:
+            out.append(f"warning: the run may write {_size(self.output_bytes)}: raise output.frame_interval or "
+                       "write fewer output.fields")  # fmt: skip
         return out + self.notes
 
 
@@ -96,13 +107,15 @@ def count_steps(scene: Scene) -> tuple[int, bool, int, list[str]]:
     steps, frames, capped, notes = 0, 1, False, []
     for i, phase in enumerate(phases):
         sc = phase_scene(scene, i) if scene.phases else scene
+        frame_every = max(1, round(sc.output.frame_interval / sc.time_step))
+        frames += i > 0  # the frame a phase starts with (the run's first: the one counted above)
         if phase.kind == "dynamic":
             n = min(math.ceil(phase.duration / sc.time_step - 1e-9), phase.max_steps)
             steps += n
-            frames += max(1, n // max(1, round(sc.output.frame_interval / sc.time_step)))
+            frames += n // frame_every + (n % frame_every > 0)  # every frame_every steps, and the last
         elif phase.kind == "equilibrium":
-            frame_every = max(1, round(sc.output.frame_interval / sc.time_step))
-            steps, capped, frames = steps + phase.max_steps, True, frames + phase.max_steps // frame_every + 1
+            steps, capped = steps + phase.max_steps, True
+            frames += phase.max_steps // frame_every + (phase.max_steps % frame_every > 0)
         elif phase.kind == "safety":
             steps, capped, frames = steps + 7 * phase.max_steps, True, frames + 8
         elif phase.kind in IMPLICIT_PHASE_KINDS:
