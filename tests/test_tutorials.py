@@ -94,3 +94,18 @@ def test_the_tutorials_say_how_warpsph_gets_on_the_path():
     first = (root / "docs" / "tutorials" / "first_model.md").read_text()
     assert "`source .venv/bin/activate` then puts `warpsph` on the shell's PATH" in readme
     assert "source .venv/bin/activate" in first and first.index("activate") < first.index("warpsph validate")
+
+
+def test_the_first_tutorials_blocks_are_the_whole_scene():
+    """The TOML blocks of first_model.md, one after the other, parse to the scene of first_model.toml
+    (a scene typed from the page is the one the page runs)."""
+    import dataclasses
+    import re
+
+    from warpsph.scene_toml import load_scene, parse_scene
+
+    page = (TUTORIALS / "first_model.md").read_text()
+    typed = parse_scene("\n".join(re.findall(r"```toml\n(.*?)```", page, re.S)), "first_model")
+    shipped = load_scene(TUTORIALS / "first_model.toml")
+    assert typed.boundaries == shipped.boundaries and typed.output == shipped.output
+    assert dataclasses.replace(typed, source_text="") == dataclasses.replace(shipped, source_text="")
