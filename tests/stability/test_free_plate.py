@@ -22,7 +22,7 @@ import functools
 
 import numpy as np
 import pytest
-from stability_tools import largest_rise, scheme_params, step_jacobian
+from stability_tools import SCHEMES, largest_rise, step_jacobian
 
 from warpsph.scene import Scene
 from warpsph.stability.elastic import free_plate_scene, seeded_plate_energies
@@ -40,12 +40,16 @@ def energies(scheme: str) -> np.ndarray:
     return seeded_plate_energies(plate(scheme), STEPS)
 
 
-@pytest.mark.parametrize("scheme", scheme_params({
-    "collocated": "energy ×2e5 within 100 steps (0.06 s; growth 113 /s, measured, docs/stability.md)"}))
+@pytest.mark.parametrize("scheme", SCHEMES)
 def test_free_plate_creates_no_energy(scheme):
+    """The two-set plate never gains more than 0.1 % of its energy; the collocated baseline is the
+    contrast: its free surfaces make energy, a hundredfold within 100 steps (×2e5 measured)."""
     e = energies(scheme)
     print(f"\n{scheme}: {100 * (len(e) - 1)} steps, energy {e[-1] / e[0]:.3g} of the start, "
           f"largest rise {largest_rise(e):.3g}")
+    if scheme == "collocated":
+        assert len(e) == 2 and not e[1] < 100.0 * e[0]  # the march stops once the energy is a hundredfold
+        return
     assert len(e) == STEPS // 100 + 1 and np.all(np.isfinite(e))
     assert largest_rise(e) <= 1e-3
 

@@ -63,23 +63,31 @@ def history(scheme: str, case: str, reflections: int):
     return peaks[:reflections], np.array(energies)
 
 
-@pytest.mark.parametrize("scheme", scheme_params({
-    "collocated": "front overshoot 50 % at C = 0.9 without artificial viscosity (measured, docs/stability.md)"}))
+@pytest.mark.parametrize("scheme", SCHEMES)
 def test_step_load_front_overshoot(scheme):
+    """The two-set step's front overshoots by less than 40 %; the collocated baseline is the contrast:
+    a method of lines without dissipation at the front overshoots by more (50 % measured)."""
     peaks, _ = history(scheme, "step_load", 20)
     print(f"\n{scheme}, C = {COURANT}: front overshoot {100 * (peaks[0] - 1):.1f} % in the first transit")
-    assert peaks[0] - 1.0 < 0.4
+    if scheme == "collocated":
+        assert peaks[0] - 1.0 >= 0.4
+    else:
+        assert peaks[0] - 1.0 < 0.4
 
 
 @pytest.mark.parametrize("scheme, case", [
     ("two_set", "step_load"), ("collocated", "step_load"), ("two_set", "released_prestress"),
-    pytest.param("collocated", "released_prestress", marks=expected_failure(
-        "peak |σ_yy|/σ₀ grows from 1.37 (reflections 1-10) to 1.48 (11-20) (measured, docs/stability.md)")),
+    ("collocated", "released_prestress"),
 ])
 def test_no_growth_over_20_reflections(scheme, case):
+    """No growth of the peak from reflections 1–10 to 11–20; the collocated baseline's released
+    prestress is the contrast: its peak grows by more than 5 % (1.37 to 1.48 measured)."""
     peaks, _ = history(scheme, case, 20)
     early, late = peaks[:10].max(), peaks[10:].max()
     print(f"\n{scheme}, {case}, C = {COURANT}: peak |σ_yy|/σ₀ {early:.4f} over reflections 1-10, {late:.4f} over 11-20")
+    if (scheme, case) == ("collocated", "released_prestress"):
+        assert late > 1.05 * early
+        return
     assert peaks.max() < 1.4 * EXACT_PEAK[case]
     assert late <= 1.05 * early
 
