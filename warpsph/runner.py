@@ -371,7 +371,7 @@ class Run:
         self.resumed = True
 
     def _checkpoint(self) -> None:
-        self._check()
+        self._check()  # nothing is written from a step the guards marked
         if "energy_start" in self.loop:
             self.loop["energy_error"], self.loop["energy_windows"] = self.energy_guard.progress_so_far()
         arrays = {name: arr.numpy() for name, arr in self.state.arrays().items()}
@@ -407,6 +407,7 @@ class Run:
     def _sample_probes(self, fields=None) -> None:
         if not self.probes.probes:
             return
+        self._check()  # nothing is written from a step the guards marked
         rows = None if fields is not None else self.probes.rows
         if rows is not None and self._probe_index is None and len(rows):  # once per phase
             self._probe_index = wp.array(rows.astype(np.int32), dtype=wp.int32, device=self.model.device)
@@ -448,6 +449,7 @@ class Run:
     def _write_frame(self, content: FrameContent | None = None, **attrs) -> None:
         """Write a frame of the current state, or the ``content`` of one made elsewhere (a safety trial's
         last state; ``attrs``: extra attributes of the frame)."""
+        self._check()  # nothing is written from a step the guards marked
         fields, frame, balance = content or self._frame()
         self._room_for(fields)
         self._sample_probes(fields)
@@ -562,8 +564,6 @@ class Run:
     def _output(self, last: bool, frame_every: int, ck_every: int) -> None:
         """Frames, probe samples and checkpoints at their cadence (steps since the phase's start)."""
         k = self.step_index - self.phase_start_step
-        if k % frame_every == 0 or last or self.step_index % self.phase_scene.output.probe_every == 0:
-            self._check()  # nothing is written from a step the guards marked
         if k % frame_every == 0 or last:
             self._write_frame()
         elif self.step_index % self.phase_scene.output.probe_every == 0:

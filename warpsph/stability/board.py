@@ -166,7 +166,9 @@ HEADER = ("case", "quantity", "measured", "limit", "holds", "energy error", "s")
 
 
 def format_row(row: Row) -> str:
-    energy = "–" if row.energy_error is None else f"{_number(row.energy_error)} ({'ok' if row.energy_holds else 'no'})"
+    energy = "–"
+    if row.energy_error is not None:
+        energy = f"{_number(row.energy_error)} ({'ok' if row.energy_holds else 'no'})"
     return " | ".join([row.case, row.quantity, _number(row.measured), f"{row.relation} {_number(row.limit)}",
                        "yes" if row.holds else "NO", energy, f"{row.seconds:.1f}"])  # fmt: skip
 

@@ -3,6 +3,8 @@ march, energies, spacing and peak measures, and the Jacobian of one step (docs/s
 
 from __future__ import annotations
 
+import math
+
 import numpy as np
 
 from warpsph.builder import build
@@ -54,6 +56,13 @@ def march(scene, steps: int, observe=None, every: int = 1, setup=None, device: s
     if balance is not None:
         balance.update(energy_balance(solver.energy.sums(state), start))
     return model, state, solver
+
+
+def balance_error(balance: dict) -> float:
+    """A march's energy balance error over the energy turned over; inf where the run blew up (its sums
+    not finite, where the ratio itself would read 0)."""
+    finite = all(math.isfinite(v) for v in balance.values())
+    return balance["error_ratio"] if finite else math.inf
 
 
 def cell_share(model) -> np.ndarray:

@@ -12,7 +12,7 @@ from warpsph.runner import Run
 from warpsph.scene import (Body, Boundary, Drainage, Effects, Load, Material, Phase, PressureSolver, Region, Scene,
                            Simulation, TimeFunction)  # fmt: skip
 from warpsph.stability.board import Measure, case, configure
-from warpsph.stability.tools import march
+from warpsph.stability.tools import balance_error, march
 
 STRIP_Q, STRIP_RAMP, STRIP_END = 50e3, 0.1, 1.5
 """The loaded strip's footing pressure q [Pa], its ramp [s] and the run's end [s]."""
@@ -72,7 +72,7 @@ def saturated_strip(options: Mapping[str, object]) -> list[Measure]:
     detail = (f"{model.particle_count} particles, {len(peaks) - 1} of {steps} steps of {dt:.3g} s; largest |excess| "
               f"{samples} kPa at 0.25-1.5 s, {peaks[min(loaded, len(peaks) - 1)] / 1e3:.1f} kPa at full load "
               f"({loaded * dt:.3g} s), largest {np.max(peaks) / 1e3:.1f} kPa at {np.argmax(peaks) * dt:.3g} s")
-    error = balance.get("error_ratio")
+    error = balance_error(balance)
     return [Measure("largest excess pore pressure / q", largest / STRIP_Q, 1.2, energy_error=error, detail=detail),
             Measure("rise once loaded / q", rise / STRIP_Q, RISE_TOLERANCE, energy_error=error, detail=detail)]
 
