@@ -88,11 +88,11 @@ def test_a_flow_phase_runs_the_groundwater_kernels_only(scenes_dir, tmp_path):
                     Phase(name="dynamic", kind="dynamic", duration=2 * scene.time_step)]  # fmt: skip
     run = Run(scene.validate(), tmp_path)
     with record_launches() as launched:
-        run._run_flow(None)
+        run.calculation.calculate(None)
     assert any("assemble_flow" in k for k in launched) and any("retention_fields" in k for k in launched)
     assert not [k for k in launched if "step" in k.lower() or "projection" in k.lower()]
     run._enter_phase(1, (run.model, run.state, run.origin))
     with record_launches() as launched:
-        run._run_dynamic(None)
+        run.calculation.calculate(None)
     assert any("half_step" in k for k in launched)
     assert not [k for k in launched if "flow" in k or "retention" in k]

@@ -1,4 +1,5 @@
-"""Scripted runs: time loop, output cadence, checkpoints, run guards and the run record.
+"""Scripted runs: the phases in sequence (each kind's calculation in :mod:`warpsph.phases`), output
+cadence, checkpoints, run guards, signals and the run record.
 
 ``run_scene(scene, out_dir)`` is what ``warpsph run`` calls. A run writes into ``out_dir``:
 ``results.h5`` (+ ``results.xdmf``), ``particles.usdc`` (+ clips), ``checkpoint.h5`` and ``run.json``
@@ -9,8 +10,6 @@ stays on disk.
 
 from __future__ import annotations
 
-import contextlib
-import copy
 import importlib.util
 import json
 import math
@@ -30,27 +29,32 @@ import numpy as np
 import warp as wp
 
 import warpsph
-from warpsph.builder import build, plastic_materials
+from warpsph.builder import build
 from warpsph.environment import check_device, default_device
 from warpsph.errors import InputError, OutputError, SimulationError
 from warpsph.fields import tensor_to_voigt
 from warpsph.io import ResultsWriter, UsdParticleCache, load_checkpoint, save_checkpoint
 from warpsph.io.xdmf import XdmfIndex
-from warpsph.io.run_directory import RunDirectory, first_difference, scene_record
-from warpsph.initial_stress import geostatic_stress, geostatic_unit_weight
-from warpsph.model import PLANE_TRACTION, Model, State
-from warpsph.phase_state import ParticleIds, carry_state
-from warpsph.phases import AT_REST, CONVERGED, FINISHED, NOT_CONVERGED, STOPPED, UNSTABLE, PhaseRecord, default_phases
-from warpsph.phases import FactorSearch, phase_scene, reduced_strength
+from warpsph.io.run_directory import CHECKPOINT, RECORD, RESULTS, RunDirectory, first_difference, scene_record
+from warpsph.model import Model, State
+from warpsph.phases.base import CHECK_EVERY, Calculation, Stopped
+from warpsph.phases.carry import ParticleIds, carry_state
+from warpsph.phases.consolidation import Consolidation
+from warpsph.phases.dynamic import Dynamic
+from warpsph.phases.equilibrium import Equilibrium
+from warpsph.phases.flow import Flow
+from warpsph.phases.k0 import K0Procedure
+from warpsph.phases.safety import SafetyAnalysis
+from warpsph.phases.staging import NOT_CONVERGED, STOPPED, UNSTABLE, PhaseRecord, default_phases, phase_scene
 from warpsph.probes import Probes
-from warpsph.scene import FAILURE_DISPLACEMENT, IMPLICIT_PHASE_KINDS, Phase, Scene
+from warpsph.scene import IMPLICIT_PHASE_KINDS, Phase, Scene
 from warpsph.solver import Solver
-from warpsph.stages.consolidation import FixedStressSplit
 from warpsph.stages.energy import EnergyGuard, balance_warnings, energy_balance
-from warpsph.stages.groundwater import GroundwaterFlow
 from warpsph.stages.guard import Guard
 
-RESULTS, CHECKPOINT, RECORD = "results.h5", "checkpoint.h5", "run.json"
+CALCULATIONS: dict[str, type[Calculation]] = {"k0": K0Procedure, "equilibrium": Equilibrium, "safety": SafetyAnalysis,
+                                              "dynamic": Dynamic, "flow": Flow, "consolidation": Consolidation}  # fmt: skip
+"""Each phase kind's calculation (:mod:`warpsph.phases`)."""
 
 
 @dataclass
@@ -95,19 +99,6 @@ class FrameContent(NamedTuple):
     fields: dict
     frame: dict
     balance: dict | None
-
-
-class TrialOutcome(NamedTuple):
-    """What a safety trial did (:meth:`Run.safety_trial`)."""
-
-    factor: float
-    converged: bool
-    ratio: float
-    """The final unbalanced-force ratio (inf where the run guard stopped the trial)."""
-    steps: int
-    moved: float
-    """The largest displacement from the phase's start [m] (inf where the run guard stopped the trial)."""
-    frame: FrameContent | None
 
 
 def host_fields(model: Model, state: State, rows: np.ndarray | None = None,
@@ -162,9 +153,6 @@ def warm_up(solver: Solver, guard: Guard, state: State, scratch: State, t: float
 
 OUTPUT_RESERVE = 1 << 20
 """Bytes a frame or checkpoint write leaves free on the disk beyond twice its arrays [B]."""
-CHECK_EVERY = 10
-"""Steps between two reads of an equilibrium phase's unbalanced force, a dynamic phase's kinetic
-energy, or the energy balance written as series: each read waits for the device."""
 GUARD_WINDOW = 2
 """Steps between two checks of the energy balance by the run guard (a divisor of ``CHECK_EVERY``): the
 window over which it measures the energy made, short enough to stop an unstable mode within a few
@@ -233,7 +221,7 @@ class Run:
                 raise InputError(f"--resume: {changed} differs from the scene the checkpoint was written with (a "
                                  "resumed run may change only its output and simulation.end_time)")  # fmt: skip
         phase_index = int(ck.meta.get("phase", 0)) if ck is not None else 0
-        self.phase_index, self.flow, self.split = 0, None, None
+        self.phase_index, self.calculation = 0, None
         if not 0 <= phase_index < len(self.phases):
             raise InputError("--resume: the checkpoint's phase is not one of this scene's")
         self._enter_phase(phase_index)
@@ -269,12 +257,11 @@ class Run:
         if before is not None:
             origin = carry_state(self.ids, before[0], before[1], self.model, self.state, before[2])
         self.phase_scene = phase_scene_
-        if phase.kind == "k0":
-            self._k0_procedure()
-        damped = phase.kind in ("equilibrium", "safety", "consolidation")
-        pore_pressure = "fixed" if phase.kind == "consolidation" else phase.pore_pressure
-        self.solver = Solver(self.model, profile=self.profile, damping=phase.damping if damped else None,
-                             pore_pressure=pore_pressure)  # fmt: skip
+        self.calculation = CALCULATIONS[phase.kind](self, phase)
+        self.calculation.prepare()
+        damping = phase.damping if self.calculation.damped else None
+        self.solver = Solver(self.model, profile=self.profile, damping=damping,
+                             pore_pressure=self.calculation.pore_pressure)  # fmt: skip
         self.scratch = self.model.state()
         self.scratch.assign(self.state)
         self.guard = Guard(self.model, phase_scene_.speed_limit)
@@ -289,18 +276,25 @@ class Run:
             self.origin = host_fields(self.model, self.state)["position"]
         self.probes.displacement_origin = self.origin
         self.loop = {}
-        self._start_energy()
-        self._load_scale = None  # the phase's constant parts of the applied force (_applied_force)
-        self.flow = self.split = None
-        if phase.kind in IMPLICIT_PHASE_KINDS:
-            height = self._height(self.model.particle_x0)
-            self.flow = GroundwaterFlow(self.model, self.solver, self.state, phase_scene_.reservoirs, phase.tolerance,
-                                        height)  # fmt: skip
-        if phase.kind == "consolidation":
-            self.split = FixedStressSplit(self.model, self.solver, self.flow, self._equilibrate_held,
-                                          lambda: self.state)  # fmt: skip
+        self.start_energy()
+        self.calculation.build()
         self.phase_start_step, self.phase_start_time = self.step_index, now
         self.records.append(PhaseRecord(phase.name, phase.kind, self.step_index, self.phase_start_time))
+
+    @property
+    def flow(self):
+        """The current phase's groundwater flow (None: it solves none)."""
+        return self.calculation.flow
+
+    @property
+    def split(self):
+        """The current consolidation phase's fixed-stress split (None: not a consolidation phase)."""
+        return self.calculation.split
+
+    def clear_guards(self) -> None:
+        """Forget what the run guards marked (a safety trial's start and end)."""
+        self.guard.clear()
+        self._checked = None
 
     @property
     def _books_energy(self) -> bool:
@@ -308,24 +302,11 @@ class Run:
         scheme's explicit steps; a flow or consolidation phase's implicit steps do not."""
         return self.model.spec.scheme == "two_set" and self.phase.kind not in IMPLICIT_PHASE_KINDS
 
-    def _energy_balance(self) -> dict[str, float] | None:
+    def balance_since_start(self) -> dict[str, float] | None:
         """The energy balance since the phase's start (a safety trial's: since the trial's), or None for
         a phase whose steps do not book it."""
         start = self.loop.get("energy_start")
         return None if start is None else energy_balance(self.solver.energy.sums(self.state), start)
-
-    def _k0_procedure(self) -> None:
-        """Geostatic effective stresses of every active body at once (the K0 procedure): σ′_v from the
-        (buoyant, with pore water) weight above each particle in its column, σ′_h = K0 σ′_v."""
-        m, scene = self.model, self.phase_scene
-        mats = list(scene.materials.values())
-        material = m.particle_material.numpy()[: m.particle_count]
-        gravity, pore_water = scene.simulation.gravity, m.pore is not None
-        unit_weight = np.array([geostatic_unit_weight(mt, gravity, pore_water) for mt in mats])[material]
-        k0 = np.array([mt.earth_pressure_at_rest for mt in mats])[material]
-        stress = self.state.particle_stress.numpy()
-        stress[: m.particle_count] = geostatic_stress(m.particle_x0, unit_weight, k0, m.dx)
-        self.state.particle_stress.assign(stress)
 
     @property
     def phase_time(self) -> float:
@@ -370,7 +351,7 @@ class Run:
         self.step_index = self.checkpoint_step = ck.step
         self.resumed = True
 
-    def _checkpoint(self) -> None:
+    def checkpoint(self) -> None:
         self._check()  # nothing is written from a step the guards marked
         if "energy_start" in self.loop:
             self.loop["energy_error"], self.loop["energy_windows"] = self.energy_guard.progress_so_far()
@@ -423,7 +404,7 @@ class Run:
         self.results.append_series("pressure_iterations", self.step_index, self.time, projection.iterations[-1])
         self.results.append_series("pressure_residual", self.step_index, self.time, projection.residuals[-1])
 
-    def _frame(self) -> FrameContent:
+    def frame(self) -> FrameContent:
         """What a frame of the current state holds: the host fields and the frame's arrays."""
         fields = host_fields(self.model, self.state)
         frame = {"position": fields["position"]}
@@ -446,11 +427,11 @@ class Run:
             frame["saturation"] = self.flow.saturation_field()
         return FrameContent(fields, frame, None)
 
-    def _write_frame(self, content: FrameContent | None = None, **attrs) -> None:
+    def write_frame(self, content: FrameContent | None = None, **attrs) -> None:
         """Write a frame of the current state, or the ``content`` of one made elsewhere (a safety trial's
         last state; ``attrs``: extra attributes of the frame)."""
         self._check()  # nothing is written from a step the guards marked
-        fields, frame, balance = content or self._frame()
+        fields, frame, balance = content or self.frame()
         self._room_for(fields)
         self._sample_probes(fields)
         self._energy_series(balance)
@@ -500,7 +481,7 @@ class Run:
             tmp.unlink(missing_ok=True)
 
     # -- one step ---------------------------------------------------------------------------------
-    def _warm_up(self) -> None:
+    def warm_up(self) -> None:
         if self.phase.kind == "flow":  # no mechanical step: the flow kernels compile at their first use
             return
         self.summary.compile_seconds += warm_up(self.solver, self.guard, self.state, self.scratch, self.phase_time,
@@ -518,7 +499,7 @@ class Run:
         grown = self.energy_guard.read() if "energy_start" in self.loop else None
         if grown is not None and (flagged is None or grown[0] < flagged.step):
             step, window, made, ratio = grown
-            self._unstable(f"the energy made from nothing grew over three windows of {GUARD_WINDOW} steps, to "
+            self.unstable(f"the energy made from nothing grew over three windows of {GUARD_WINDOW} steps, to "
                            f"{window:.4g} J in the last, {100 * made:.3g} % of the energy in play (limit "
                            f"{100 * ENERGY_MADE_LIMIT:g} %) and {ratio:.3g} times the first's (limit "
                            f"{ENERGY_GROWTH:g})", step)  # fmt: skip
@@ -526,7 +507,7 @@ class Run:
             return
         where = np.array2string(flagged.position, precision=4)
         if flagged.particle is None:
-            self._unstable(f"virtual point {flagged.point} at {where} m has the density {flagged.density:.4g} kg/m³",
+            self.unstable(f"virtual point {flagged.point} at {where} m has the density {flagged.density:.4g} kg/m³",
                            flagged.step)  # fmt: skip
         broken = [f"a non-finite {name.replace('_', ' ')}" for name in flagged.not_finite]
         if not flagged.density > 0.0 and "density" not in flagged.not_finite:
@@ -535,9 +516,9 @@ class Run:
             what = f"has {' and '.join(broken)}"
         else:
             what = f"moves at {flagged.speed:.4g} m/s, beyond {self.phase_scene.speed_limit_text}"
-        self._unstable(f"particle {flagged.particle} at {where} m {what}", flagged.step)
+        self.unstable(f"particle {flagged.particle} at {where} m {what}", flagged.step)
 
-    def _unstable(self, what: str, step: int | None = None):
+    def unstable(self, what: str, step: int | None = None):
         """Stop the run, unstable at ``step`` (default: this one) of the current phase."""
         step = self.step_index if step is None else step
         where = f" (phase {self.phase.name})" if self.staged else ""
@@ -546,7 +527,7 @@ class Run:
             f"unstable at step {step}{where}, t = {time:.6g} s: {what}; the last good checkpoint "
             f"(step {self.checkpoint_step}) and the frames written are kept in {self.out}")
 
-    def _step(self) -> None:
+    def step(self) -> None:
         self.solver.step(self.state, self.scratch, self.phase_time, self.dt)
         self.state, self.scratch = self.scratch, self.state
         self.step_index += 1
@@ -558,20 +539,20 @@ class Run:
         if k % CHECK_EVERY == 0:
             self._check()
             if self.phase.kind != "safety" and "energy_start" in self.loop:  # a trial's is written with its frame
-                self._energy_series(self._energy_balance())
+                self._energy_series(self.balance_since_start())
         self._record_pressure_solve()
 
-    def _output(self, last: bool, frame_every: int, ck_every: int) -> None:
+    def output(self, last: bool, frame_every: int, ck_every: int) -> None:
         """Frames, probe samples and checkpoints at their cadence (steps since the phase's start)."""
         k = self.step_index - self.phase_start_step
         if k % frame_every == 0 or last:
-            self._write_frame()
+            self.write_frame()
         elif self.step_index % self.phase_scene.output.probe_every == 0:
             self._sample_probes()
         if k % ck_every == 0 or last:
-            self._checkpoint()
+            self.checkpoint()
 
-    def _cadence(self, damped: bool) -> tuple[int, int]:
+    def cadence(self, damped: bool) -> tuple[int, int]:
         out = self.phase_scene.output
         frame_every = max(1, round(out.frame_interval / self.dt))
         ck_every = max(1, round(out.checkpoint_interval / self.dt)) if out.checkpoint_interval > 0 else frame_every
@@ -579,213 +560,17 @@ class Run:
             ck_every = CHECK_EVERY * math.ceil(ck_every / CHECK_EVERY)
         return frame_every, ck_every
 
-    def _stop_step(self) -> int | None:
+    def stop_step(self) -> int | None:
         """The step at which ``--end-time`` stops the run (None without it, or without phases)."""
         if self.stop_time is None or not self.staged or self.phase.kind in IMPLICIT_PHASE_KINDS:
             return None
         return self.phase_start_step + math.ceil((self.stop_time - self.phase_start_time) / self.dt - 1e-9)
 
-    # -- phases' loops ----------------------------------------------------------------------------
-    def _run_dynamic(self, progress) -> str:
-        phase = self.phase
-        duration = phase.duration if self.staged else self.end_time
-        n_end = max(self.step_index, self.phase_start_step + math.ceil(duration / self.dt - 1e-9))
-        if self.staged:
-            n_end = min(n_end, self.phase_start_step + phase.max_steps)
-        stop = self._stop_step()
-        if stop is not None and stop < n_end:
-            n_end = max(self.step_index, stop)
-        frame_every, ck_every = self._cadence(False)
-        outcome = FINISHED if stop is None or stop >= n_end else STOPPED
-        mass = self.model.particle_mass.numpy()[: self.model.particle_count]
-        while self.step_index < n_end:
-            self._step()
-            k = self.step_index - self.phase_start_step
-            at_rest = False
-            if phase.at_rest > 0.0 and k % CHECK_EVERY == 0:
-                v = self.state.particle_v.numpy()[: self.model.particle_count].astype(np.float64)
-                energy = 0.5 * float(np.sum(mass * np.sum(v * v, axis=1)))
-                peak = max(self.loop.get("peak_energy", 0.0), energy)
-                self.loop["peak_energy"] = peak
-                self.results.append_series("kinetic_energy", self.step_index, self.time, energy)
-                at_rest = peak > 0.0 and energy < phase.at_rest * peak
-                self.records[-1].criterion = energy / peak if peak > 0.0 else 0.0
-            self._output(self.step_index == n_end or at_rest, frame_every, ck_every)
-            if progress is not None:
-                progress(self.time, self.step_index)
-            if at_rest:
-                return AT_REST
-            self._stop_if_interrupted()
-        return outcome
-
-    def _run_flow(self, progress) -> str:
-        """Groundwater flow through the fixed skeleton (:class:`~warpsph.stages.groundwater.GroundwaterFlow`):
-        the steady state, or a transient of the phase's duration (:meth:`_implicit_steps`)."""
-        phase, flow, record = self.phase, self.flow, self.records[-1]
-        if phase.steady:
-            converged = flow.solve(0.0, None, max_iterations=phase.max_steps)
-            self.step_index += flow.iterations
-            self.summary.steps += flow.iterations
-            self._flow_series()
-            record.criterion = flow.iterations
-            self._write_frame()
-            self._checkpoint()
-            return CONVERGED if converged else NOT_CONVERGED
-        return self._implicit_steps(flow, progress)
-
-    def _run_consolidation(self, progress) -> str:
-        """The coupled quasi-static transient of the phase's duration
-        (:class:`~warpsph.stages.consolidation.FixedStressSplit`, :meth:`_implicit_steps`)."""
-        return self._implicit_steps(self.split, progress)
-
-    def _equilibrate_held(self, t: float) -> tuple[bool, State]:
-        """A consolidation iterate's skeleton: equilibrium under the state's pore pressures held, the
-        loads at phase time ``t`` [s]; (converged within the phase's step cap, the state)."""
-        self.loop["time"] = t
-        self.scratch.assign(self.state)
-        self.solver.hold_pore_pressure(self.state)
-        self.loop.pop("ratio", None)
-        converged, _ratio = self._equilibrate(None, self.step_index, output=False)
-        return converged, self.state
-
-    def _implicit_steps(self, stepper, progress) -> str:
-        """A transient of the phase's duration in implicit steps of ``stepper`` (the flow, or the
-        consolidation's split: ``solve(t, dt)``, ``undo()``, ``step_change``) sized by the pressure
-        change they make (``STEP_CHANGE``), halved after one whose iteration fails, ending on each of
-        the phase's frame times. A flow phase's ``max_steps`` caps its steps; a consolidation phase
-        whose skeleton does not reach equilibrium within ``max_steps`` ends not converged."""
-        phase, record = self.phase, self.records[-1]
-        frame_times = phase.duration * np.arange(1, phase.frames + 1) / phase.frames
-        dt = self.loop.get("dt", phase.time_step or phase.duration / 1000.0)
-        stop = math.inf if self.stop_time is None else self.stop_time - self.phase_start_time
-        rejected = None  # (change, step) of the first try of a step being retried shorter
-        if stepper is self.split:  # the split's scale of the pressure changes, kept in checkpoints
-            stepper.pressure_scale = self.loop.get("pressure_scale", stepper.pressure_scale)
-        while self.phase_time < phase.duration * (1.0 - 1e-12):
-            t = self.phase_time
-            if t >= stop:
-                return STOPPED
-            self._stop_if_interrupted()
-            target = float(frame_times[np.searchsorted(frame_times, t * (1.0 + 1e-12) + 1e-300, side="right")])
-            step = min(dt, target - t)
-            steps = self.loop.get("steps", 0)
-            if stepper is self.flow and steps >= phase.max_steps:
-                return NOT_CONVERGED
-            converged = stepper.solve(t + step, step)
-            self.loop["time"] = t
-            if stepper is self.split and stepper.collapsed:
-                self._write_frame()
-                return NOT_CONVERGED
-            smallest = 1e-12 * phase.duration
-            # a change that does not shrink with the step (a seepage face's exit point moving on, soil
-            # that follows its neighbours at once) is not the step's error: the step stands
-            step_driven = rejected is None or stepper.step_change < 0.75 * rejected[0]
-            if not converged or (stepper.step_change > 1.5 and step_driven and step > smallest):
-                dt = 0.5 * step if not converged else step * max(0.25, 0.8 / stepper.step_change)
-                if dt < smallest:
-                    self._unstable(f"the {phase.kind} does not converge even with a time step of {step:.3g} s")
-                if converged:  # too large a change: put the step back
-                    stepper.undo()
-                    rejected = (stepper.step_change, step if rejected is None else rejected[1])
-                continue
-            self.loop["time"] = t + step if target - (t + step) > 1e-9 * phase.duration else target
-            if not step_driven:  # the next step is tried as long as this one was first
-                dt = rejected[1]
-            elif step >= dt:  # not a step shortened to meet a frame time
-                dt = step * min(1.5, 0.9 / max(stepper.step_change, 1e-300))
-            rejected = None
-            self.loop["dt"], self.loop["steps"] = dt, steps + 1
-            if stepper is self.flow:
-                self.step_index += 1
-                self.summary.steps += 1
-            else:
-                self.loop["pressure_scale"] = stepper.pressure_scale
-            record.criterion = self.loop["time"]
-            self._flow_series()
-            if not np.all(np.isfinite(self.state.particle_pore_pressure.numpy())):
-                self._unstable("the pore pressure is not finite")
-            if self.loop["time"] == target:
-                self._write_frame()
-                self._checkpoint()
-            if progress is not None:
-                progress(self.time, self.step_index)
-        return FINISHED
-
-    def _flow_series(self) -> None:
-        """A flow step's discharges, storage rate and iterations as series."""
-        flow = self.flow
-        for name, value in flow.discharge.items():
-            self.results.append_series(f"discharge_{name}", self.step_index, self.time, value)
-        self.results.append_series("storage_rate", self.step_index, self.time, flow.storage_rate)
-        self.results.append_series("flow_iterations", self.step_index, self.time, flow.iterations)
-        if self.split is not None:
-            self.results.append_series("consolidation_iterations", self.step_index, self.time, self.split.iterations)
-
-    def _applied_force(self) -> float:
-        """Σ m‖g‖ over the particles plus the loads' resultants at the phase's time [N/m or N]: the
-        scale of the unbalanced-force ratio (docs/scenes.md, *Phases*)."""
-        if self._load_scale is None:
-            self._load_scale = self._applied_force_parts()
-        total, loads = self._load_scale
-        for resultant, time_function in loads:
-            total += resultant * abs(time_function(self.phase_time))
-        return total
-
-    def _applied_force_parts(self) -> tuple[float, list]:
-        """What :meth:`_applied_force` needs that a phase does not change: Σ m‖g‖, and each traction
-        plane's and force load's full resultant with its time function."""
-        m = self.model
-        weight = float(np.sum(m.particle_mass.numpy()[: m.particle_count])) * float(np.linalg.norm(m.gravity))
-        counts = np.bincount(m.constraint_planes.numpy().reshape(-1, 3).ravel() + 1, minlength=m.plane_count + 1)
-        kinds, vectors = m.plane_kind.numpy(), m.plane_vector.numpy()
-        loads = [(counts[p + 1] * m.dx ** (m.spec.dim - 1) * float(np.linalg.norm(vectors[p])), m.plane_functions[p])
-                 for p in range(m.plane_count) if kinds[p] == PLANE_TRACTION]  # fmt: skip
-        loads += [(float(np.linalg.norm(ld.force)), ld.time_function) for ld in self.phase_scene.loads
-                  if ld.kind == "force"]  # fmt: skip
-        return weight, loads
-
-    def _equilibrate(self, progress, first: int, output: bool = True,
-                     start: tuple[np.ndarray, float] | None = None) -> tuple[bool, float]:
-        """Damped steps from step ``first`` until the unbalanced-force ratio falls below the phase's
-        tolerance (True) or its step cap is reached (False); also the last ratio. ``output``: write
-        frames and checkpoints at their cadence (a safety trial writes its last frame only).
-        ``start`` = (positions (N,3) [m], limit [m]): also False once a particle has moved farther
-        than the limit from its start position (a safety trial's failure displacement)."""
-        phase = self.phase
-        frame_every, ck_every = self._cadence(True)
-        ratio = self.loop.get("ratio", math.inf)
-        stop = self._stop_step()
-        while True:
-            self._step()
-            k = self.step_index - first
-            converged = capped = False
-            if k % CHECK_EVERY == 0:
-                unbalanced, energy = self.solver.damping.read()
-                ratio = unbalanced / max(self._applied_force(), 1e-300)
-                self.loop["ratio"] = ratio
-                self.results.append_series("unbalanced_force_ratio", self.step_index, self.time, ratio)
-                self.results.append_series("kinetic_energy", self.step_index, self.time, energy)
-                converged = ratio < phase.tolerance
-                capped = not converged and k >= phase.max_steps
-                if start is not None and not converged:
-                    capped = capped or largest_displacement(self.state.particle_q, start[0]) > start[1]
-            stopped = stop is not None and self.step_index >= stop and k % CHECK_EVERY == 0
-            if output:
-                self._output(converged or capped or stopped, frame_every, ck_every)
-            if progress is not None:
-                progress(self.time, self.step_index)
-            if converged or capped or stopped:
-                if stopped and not (converged or capped):
-                    raise _Stopped()
-                return converged, ratio
-            if k % CHECK_EVERY == 0:  # where a checkpoint resumes bit-identical (a safety trial keeps none)
-                self._stop_if_interrupted(checkpoint=output)
-
-    def _stop_if_interrupted(self, checkpoint: bool = True) -> None:
+    def stop_if_interrupted(self, checkpoint: bool = True) -> None:
         """After SIGINT or SIGTERM: checkpoint this step (unless told not to) and stop the run."""
         if self.interrupted is not None:
             if checkpoint:
-                self._checkpoint()
+                self.checkpoint()
             raise _Interrupted()
 
     def _on_signal(self, signum, frame) -> None:
@@ -793,103 +578,12 @@ class Run:
             raise KeyboardInterrupt
         self.interrupted = signal.Signals(signum).name
 
-    def _run_equilibrium(self, progress) -> str:
-        converged, ratio = self._equilibrate(progress, self.phase_start_step)
-        self.records[-1].criterion = ratio
-        return CONVERGED if converged else NOT_CONVERGED
-
-    def _run_safety(self, progress) -> str:
-        """Strength reduction (:class:`~warpsph.phases.FactorSearch`): each trial an equilibrium from
-        the phase's start state with c, tan φ and tan ψ divided by the trial factor F; a trial stands
-        when it converges within the phase's step cap, and fails at the cap or once a particle has
-        moved farther than the failure displacement. Each trial's last state is written as a frame
-        (attributes ``factor`` and ``converged``), the state is then put back to the phase's start and
-        checkpointed, so the next phase starts from the unreduced state. With trial workers (``Run``'s
-        ``trial_workers`` or ``scheduler``) the trials of a round run at once on Dask, one per worker,
-        each from the phase's start checkpoint (:func:`remote_safety_trial`); their steps count as if run in
-        turn."""
-        phase, record = self.phase, self.records[-1]
-        with contextlib.ExitStack() as stack:
-            client = None
-            if self.scheduler or (self.trial_workers or 0) > 1:
-                from warpsph.study.execute import dask_client
-
-                client = stack.enter_context(dask_client(self.scheduler, self.trial_workers))
-            width = len(client.scheduler_info()["workers"]) if client is not None else 1
-            search = FactorSearch(phase.factor_tolerance, phase.factor_max, self.loop.get("search"), width)
-            self.loop["search"] = search.state
-            while search.factors:
-                if client is None:
-                    outcomes = [self.safety_trial(search.factor, progress)]
-                else:
-                    outcomes = self._remote_trials(client, search.factors)
-                for outcome in outcomes:
-                    record.trials.append([outcome.factor, int(outcome.converged), outcome.ratio, outcome.steps,
-                                          outcome.moved])  # fmt: skip
-                    self.step_index += outcome.steps
-                    if client is not None:
-                        self.summary.steps += outcome.steps
-                    if outcome.frame is not None:
-                        self._write_frame(outcome.frame, factor=outcome.factor, converged=int(outcome.converged))
-                    search.record(outcome.factor, outcome.converged)
-                self._checkpoint()
-                if progress is not None:
-                    progress(self.time, self.step_index)
-                stop = self._stop_step()
-                if search.factors and stop is not None and self.step_index >= stop:
-                    raise _Stopped()
-                self._stop_if_interrupted(checkpoint=False)
-        record.criterion = search.result
-        return CONVERGED if search.bracketed else NOT_CONVERGED
-
-    def _remote_trials(self, client, factors: list[float]) -> list[TrialOutcome]:
-        """The trials at ``factors`` on the Dask workers of ``client``, in the order of ``factors``."""
-        checkpoint = (self.out / CHECKPOINT).read_bytes()  # the phase's start and the search so far
-        futures = [client.submit(remote_safety_trial, self.scene, checkpoint, factor, self.device, self.precision,
-                                 key=f"warpsph-trial-{self.phase.name}-{factor!r}-{self.step_index}")
-                   for factor in factors]  # fmt: skip
-        return client.gather(futures)
-
-    def safety_trial(self, factor: float, progress=None) -> TrialOutcome:
-        """One trial of the current safety phase at ``factor`` from the current state (the phase's start),
-        which it then puts back with the step index; the outcome carries the frame of its last state
-        (None where the run guard stopped it: a mechanism ran away, the trial failed)."""
-        phase = self.phase
-        start = {name: arr.numpy().copy() for name, arr in self.state.arrays().items()}
-        materials = list(self.phase_scene.materials.values())
-        spec, device = self.model.spec, self.model.device
-        positions = start["particle_q"][: self.model.particle_count]
-        limit = phase.failure_displacement or FAILURE_DISPLACEMENT * self._height(positions)
-        self.model.material_plasticity = plastic_materials(spec, [reduced_strength(m, factor) for m in materials],
-                                                           device)  # fmt: skip
-        first = self.step_index
-        self.loop.pop("ratio", None)
-        self._start_energy()
-        self.guard.clear()
-        self._checked = None
-        try:
-            converged, ratio = self._equilibrate(progress, first, output=False, start=(positions, limit))
-            moved = largest_displacement(self.state.particle_q, positions)
-        except SimulationError:
-            converged, ratio, moved = False, math.inf, math.inf
-        frame = self._frame()._replace(balance=self._energy_balance()) if math.isfinite(moved) else None
-        steps = self.step_index - first
-        for name, arr in self.state.arrays().items():
-            arr.assign(start[name])
-        self.scratch.assign(self.state)
-        self.step_index = first
-        self._start_energy()
-        self.guard.clear()
-        self._checked = None
-        self.model.material_plasticity = plastic_materials(spec, materials, device)
-        return TrialOutcome(factor, converged, ratio, steps, moved, frame)
-
     def _energy_series(self, balance: dict[str, float] | None) -> None:
         """The energy balance as series (``energy_kinetic``, …) at the current step."""
         for key, value in (balance or {}).items():
             self.results.append_series(f"energy_{key}", self.step_index, self.time, value)
 
-    def _start_energy(self) -> None:
+    def start_energy(self) -> None:
         """Start the energy balance (and the run guard's check of it) from the current state."""
         if self._books_energy:
             self.loop["energy_start"] = self.solver.energy.sums(self.state).tolist()
@@ -900,10 +594,10 @@ class Run:
         """The phase's energy balance at its end and one line per check it fails (:func:`balance_warnings`;
         the command line prints them): ``{"energy": ..., "energy_warnings": [...]}``, the balance None
         for a phase that keeps none and for a safety phase (each trial's is with the trial's frame)."""
-        balance = self._energy_balance() if self.phase.kind != "safety" else None
+        balance = self.balance_since_start() if self.phase.kind != "safety" else None
         return {"energy": balance, "energy_warnings": balance_warnings(balance) if balance is not None else []}
 
-    def _height(self, positions: np.ndarray) -> float:
+    def height(self, positions: np.ndarray) -> float:
         """The bodies' extent along gravity [m] (their largest extent without gravity)."""
         g = np.asarray(self.model.gravity, dtype=float)
         if np.any(g):
@@ -924,17 +618,14 @@ class Run:
         if threading.current_thread() is threading.main_thread():
             handlers = {sig: signal.signal(sig, self._on_signal) for sig in (signal.SIGINT, signal.SIGTERM)}
         try:
-            self._warm_up()
+            self.warm_up()
             start = time.perf_counter()
             if not self.resumed:
-                self._write_frame()
-                self._checkpoint()
-            loops = {"k0": lambda progress: CONVERGED, "dynamic": self._run_dynamic,
-                     "equilibrium": self._run_equilibrium, "safety": self._run_safety,
-                     "flow": self._run_flow, "consolidation": self._run_consolidation}  # fmt: skip
+                self.write_frame()
+                self.checkpoint()
             while True:
                 record = self.records[-1]
-                outcome = loops[self.phase.kind](progress)
+                outcome = self.calculation.calculate(progress)
                 record.last_step, record.end_time, record.outcome = self.step_index, self.time, outcome
                 self.summary.phases.append({"name": record.name, "kind": record.kind, "outcome": outcome,
                                             "criterion": record.criterion, "steps": record.last_step
@@ -953,11 +644,11 @@ class Run:
                 before = (self.model, self.state, self.origin)
                 self._enter_phase(self.phase_index + 1, before)
                 compile_before = time.perf_counter()
-                self._warm_up()
+                self.warm_up()
                 start += time.perf_counter() - compile_before
-                self._write_frame()
-                self._checkpoint()
-        except (_Stopped, _Interrupted) as e:
+                self.write_frame()
+                self.checkpoint()
+        except (Stopped, _Interrupted) as e:
             status = "interrupted" if isinstance(e, _Interrupted) else "stopped"
             if status == "interrupted":
                 message = (f"interrupted by {self.interrupted} at step {self.step_index}, t = {self.time:.6g} s; the "
@@ -1010,41 +701,8 @@ def os_reason(error: OSError) -> str:
     return str(error).splitlines()[0][:200] if str(error) else type(error).__name__
 
 
-def largest_displacement(positions: wp.array, start: np.ndarray) -> float:
-    """The largest distance [m] of the owned particles' ``positions`` from their ``start`` (N,3)."""
-    moved = positions.numpy()[: len(start)] - start
-    return float(np.sqrt(np.max(np.sum(moved * moved, axis=1))))
-
-
-class _Stopped(Exception):
-    """``--end-time`` reached inside an equilibrium phase."""
-
-
 class _Interrupted(Exception):
     """SIGINT or SIGTERM asked the run to stop."""
-
-
-def remote_safety_trial(scene: Scene, checkpoint: bytes, factor: float, device: str | None,
-                        precision: str | None) -> TrialOutcome:  # fmt: skip
-    """One trial of a safety phase on a Dask worker: the run resumed from the phase's ``checkpoint``
-    (the bytes of its file) in a scratch directory, without USD or XDMF output, and its trial at
-    ``factor`` (:meth:`Run.safety_trial`)."""
-    import tempfile
-
-    from warpsph.environment import init_warp
-
-    init_warp()
-    scene = copy.deepcopy(scene)
-    scene.output.usd = scene.output.xdmf = False
-    with tempfile.TemporaryDirectory(prefix="warpsph-trial-") as scratch:
-        (Path(scratch) / CHECKPOINT).write_bytes(checkpoint)
-        run = Run(scene, scratch, device=device, precision=precision, resume=True)
-        try:
-            run._warm_up()
-            return run.safety_trial(factor)
-        finally:
-            run.results.close()
-            run.directory.release()
 
 
 def run_scene(scene: Scene, out_dir, **kwargs) -> RunSummary:

@@ -77,6 +77,9 @@ def compare_runs(a, b) -> Comparison:
 
 
 def _compare_run(a: Path, b: Path, prefix: str, out: Comparison) -> None:
+    if (a / FILES[0]).exists() != (b / FILES[0]).exists():  # a run on one side only
+        out.add(prefix.rstrip("/") or FILES[0], math.inf)
+        return
     for name in FILES:
         pa, pb = a / name, b / name
         if not (pa.exists() and pb.exists()):

@@ -17,7 +17,8 @@ from pathlib import Path
 from warpsph.errors import InputError, OutputError
 
 LOCK = ".warpsph.lock"
-OUTPUT_FILES = ("results.h5", "results.xdmf", "checkpoint.h5", "checkpoint.h5.tmp", "run.json", "particles.usdc")
+RESULTS, CHECKPOINT, RECORD = "results.h5", "checkpoint.h5", "run.json"
+OUTPUT_FILES = (RESULTS, "results.xdmf", CHECKPOINT, f"{CHECKPOINT}.tmp", RECORD, "particles.usdc")
 OUTPUT_FOLDERS = ("particles_clips",)
 """What a run writes into its directory (docs/output.md), and so what ``overwrite`` removes."""
 
