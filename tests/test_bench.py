@@ -2,7 +2,7 @@
 
 import json
 
-from warpsph.bench import block_scene, block_shape, default_steps, main
+from warpsph.bench.throughput import block_scene, block_shape, default_steps, main
 
 PER_SIZE = ("particles", "steps", "wall_seconds", "compile_seconds", "particle_steps_per_second",
             "neighbour_pairs_per_step", "neighbour_interactions_per_second", "memory_bytes_per_particle")  # fmt: skip

@@ -9,7 +9,7 @@ import sys
 
 import pytest
 
-from warpsph import bench, bench_peer, peer_pysph
+from warpsph.bench import peer as bench_peer, peer_pysph, throughput as bench
 
 
 def test_the_peer_block_is_warpsph_s_block():

@@ -5,7 +5,7 @@ import math
 
 import pytest
 
-from warpsph.bench_pressure import STAGE, consolidation_coefficient, consolidation_scene, main, parse_args
+from warpsph.bench.pressure import STAGE, consolidation_coefficient, consolidation_scene, main, parse_args
 
 PER_CASE = ("particles", "steps", "wall_seconds", "seconds_per_step", "particle_steps_per_second",
             "iterations_mean", "iterations_max", "solve_seconds_per_step", "solve_share", "final_residual",

@@ -5,7 +5,7 @@ import pytest
 import warp as wp
 
 from warpsph import launching
-from warpsph.bench import block_scene
+from warpsph.bench.throughput import block_scene
 from warpsph.builder import build
 from warpsph.solver import Solver
 from warpsph.stages import linear_solve
@@ -82,8 +82,8 @@ def test_blocked_pressure_solves_match_the_row_kernels(threads, method, monkeypa
 
 
 def test_bench_solve_runs(capsys):
-    """python -m warpsph.bench_solve: a smoke run of both solve paths on 1 and 2 threads."""
-    from warpsph.bench_solve import main
+    """python -m warpsph.bench.solve: a smoke run of both solve paths on 1 and 2 threads."""
+    from warpsph.bench.solve import main
 
     main(["--size", "256", "--cycles", "1", "--steps", "1", "--solve-only"])
     out = capsys.readouterr().out

@@ -5,7 +5,7 @@ run it with :func:`run_scene` (or drive :func:`build` + :class:`Solver` yourself
 output with :func:`load_results`.
 """
 
-__version__ = "0.1.0"
+from warpsph.version import __version__
 
 from warpsph.errors import InputError, SceneError, SimulationError
 from warpsph.io import load_results

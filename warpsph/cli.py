@@ -66,7 +66,7 @@ def _version() -> str:
     import platform
     from importlib.metadata import PackageNotFoundError, version
 
-    from warpsph import __version__
+    from warpsph.version import __version__
 
     try:
         warp = version("warp-lang")

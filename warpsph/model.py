@@ -185,3 +185,35 @@ class State:
         """Copy every array of ``other`` into this state."""
         for name, arr in other.arrays().items():
             wp.copy(getattr(self, name), arr)
+
+
+def host_fields(model: Model, state: State, rows: np.ndarray | None = None,
+                index: wp.array | None = None) -> dict[str, np.ndarray]:  # fmt: skip
+    """Owned-particle fields on the host: position, velocity (N,3) [m, m/s], stress (N,3,3) [Pa],
+    density [kg/m³], with pore water the total pore pressure (N,) [Pa] and with plasticity the
+    equivalent plastic strain (N,) [-]. ``rows``: only these particles, gathered on the device
+    before the copy (``index``: the same rows as a device int32 array, when one is kept)."""
+    n = model.particle_count
+    if rows is None or not len(rows):
+        def read(arr):
+            return arr.numpy()[: n if rows is None else 0]
+    else:
+        if index is None:
+            index = wp.array(rows.astype(np.int32), dtype=wp.int32, device=model.device)
+
+        def read(arr):
+            return wp.indexedarray(arr, [index]).numpy()
+    fields = {
+        "position": read(state.particle_q).astype(np.float64),
+        "velocity": read(state.particle_v).astype(np.float64),
+        "stress": read(state.particle_stress).astype(np.float64),
+        "density": read(state.particle_density).astype(np.float64),
+    }
+    if model.pore is not None:
+        material = model.particle_material.numpy()[:n] if rows is None else read(model.particle_material)
+        water_density = model.pore.material_water_density.numpy()[material]
+        hydrostatic = model.pore.hydrostatic(fields["position"], water_density)
+        fields["pore_pressure"] = read(state.particle_pore_pressure) + hydrostatic
+    if state.particle_plastic_strain is not None:
+        fields["plastic_strain"] = read(state.particle_plastic_strain).astype(np.float64)
+    return fields

@@ -65,8 +65,7 @@ def plan(scene: Scene, device: str | None = None, timed: bool = True) -> RunPlan
     """Build the scene's first mechanical phase (which checks what its particles show,
     :mod:`warpsph.scene_reach`), time a few of its steps (unless not ``timed``) and count the rest."""
     from warpsph.builder import build
-    from warpsph.runner import warm_up
-    from warpsph.solver import Solver
+    from warpsph.solver import Solver, warm_up
     from warpsph.stages.guard import Guard
 
     phases = default_phases(scene)

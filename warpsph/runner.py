@@ -20,7 +20,6 @@ import signal
 import threading
 import platform
 import time
-import warnings
 from dataclasses import asdict, dataclass, field
 from pathlib import Path
 from typing import NamedTuple
@@ -28,7 +27,6 @@ from typing import NamedTuple
 import numpy as np
 import warp as wp
 
-import warpsph
 from warpsph.builder import build
 from warpsph.environment import check_device, default_device
 from warpsph.errors import InputError, OutputError, SimulationError
@@ -36,7 +34,7 @@ from warpsph.fields import tensor_to_voigt
 from warpsph.io import ResultsWriter, UsdParticleCache, load_checkpoint, save_checkpoint
 from warpsph.io.xdmf import XdmfIndex
 from warpsph.io.run_directory import CHECKPOINT, RECORD, RESULTS, RunDirectory, first_difference, scene_record
-from warpsph.model import Model, State
+from warpsph.model import host_fields
 from warpsph.phases.base import CHECK_EVERY, Calculation, Stopped
 from warpsph.phases.carry import ParticleIds, carry_state
 from warpsph.phases.consolidation import Consolidation
@@ -48,9 +46,10 @@ from warpsph.phases.safety import SafetyAnalysis
 from warpsph.phases.staging import NOT_CONVERGED, STOPPED, UNSTABLE, PhaseRecord, default_phases, phase_scene
 from warpsph.probes import Probes
 from warpsph.scene import IMPLICIT_PHASE_KINDS, Phase, Scene
-from warpsph.solver import Solver
+from warpsph.solver import Solver, warm_up
 from warpsph.stages.energy import EnergyGuard, balance_warnings, energy_balance
 from warpsph.stages.guard import Guard
+from warpsph.version import __version__
 
 CALCULATIONS: dict[str, type[Calculation]] = {"k0": K0Procedure, "equilibrium": Equilibrium, "safety": SafetyAnalysis,
                                               "dynamic": Dynamic, "flow": Flow, "consolidation": Consolidation}  # fmt: skip
@@ -99,56 +98,6 @@ class FrameContent(NamedTuple):
     fields: dict
     frame: dict
     balance: dict | None
-
-
-def host_fields(model: Model, state: State, rows: np.ndarray | None = None,
-                index: wp.array | None = None) -> dict[str, np.ndarray]:  # fmt: skip
-    """Owned-particle fields on the host: position, velocity (N,3) [m, m/s], stress (N,3,3) [Pa],
-    density [kg/m³], with pore water the total pore pressure (N,) [Pa] and with plasticity the
-    equivalent plastic strain (N,) [-]. ``rows``: only these particles, gathered on the device
-    before the copy (``index``: the same rows as a device int32 array, when one is kept)."""
-    n = model.particle_count
-    if rows is None or not len(rows):
-        def read(arr):
-            return arr.numpy()[: n if rows is None else 0]
-    else:
-        if index is None:
-            index = wp.array(rows.astype(np.int32), dtype=wp.int32, device=model.device)
-
-        def read(arr):
-            return wp.indexedarray(arr, [index]).numpy()
-    fields = {
-        "position": read(state.particle_q).astype(np.float64),
-        "velocity": read(state.particle_v).astype(np.float64),
-        "stress": read(state.particle_stress).astype(np.float64),
-        "density": read(state.particle_density).astype(np.float64),
-    }
-    if model.pore is not None:
-        material = model.particle_material.numpy()[:n] if rows is None else read(model.particle_material)
-        water_density = model.pore.material_water_density.numpy()[material]
-        hydrostatic = model.pore.hydrostatic(fields["position"], water_density)
-        fields["pore_pressure"] = read(state.particle_pore_pressure) + hydrostatic
-    if state.particle_plastic_strain is not None:
-        fields["plastic_strain"] = read(state.particle_plastic_strain).astype(np.float64)
-    return fields
-
-
-def warm_up(solver: Solver, guard: Guard, state: State, scratch: State, t: float, dt: float) -> float:
-    """Compile every kernel by one throw-away step from ``state`` into ``scratch`` (which is reset
-    to ``state`` afterwards) and clear the solver's statistics and what it booked; return its wall time [s]."""
-    start = time.perf_counter()
-    ledger = wp.clone(solver.energy.ledger)
-    with warnings.catch_warnings():  # the throw-away step reports nothing
-        warnings.simplefilter("ignore")
-        solver.step(state, scratch, t, dt)
-    guard.find(scratch)
-    wp.synchronize_device(solver.model.device)
-    scratch.assign(state)
-    solver.energy.ledger.assign(ledger)
-    solver.stage_seconds.clear()
-    if solver.projection is not None:
-        solver.projection.reset_statistics()
-    return time.perf_counter() - start
 
 
 OUTPUT_RESERVE = 1 << 20
@@ -230,7 +179,7 @@ class Run:
         start_step = self.step_index if self.resumed else None
         self._scene_record = json.dumps(scene_record(scene))
         self.results = ResultsWriter(self.out / RESULTS, dim=scene.simulation.dim, scene_text=scene.source_text,
-                                     particle_ids=self.model.particle_ids, warpsph_version=warpsph.__version__,
+                                     particle_ids=self.model.particle_ids, warpsph_version=__version__,
                                      resume_step=start_step)  # fmt: skip
         self.xdmf = XdmfIndex(self.out / RESULTS) if scene.output.xdmf else None
         self.usd = None
@@ -450,7 +399,7 @@ class Run:
             "scene": self.scene.name,
             "status": status,
             "message": message,
-            "warpsph_version": warpsph.__version__,
+            "warpsph_version": __version__,
             "warp_version": wp.config.version,
             "python": platform.python_version(),
             "device": str(self.model.device),

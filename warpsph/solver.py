@@ -11,6 +11,7 @@ from __future__ import annotations
 
 import functools
 import time
+import warnings
 from collections.abc import Callable
 from dataclasses import dataclass
 
@@ -405,3 +406,22 @@ class Solver:
                 self.stage_seconds[stage.name] = self.stage_seconds.get(stage.name, 0.0) + time.perf_counter() - start
             else:
                 stage.run(state_in, state_out, t, dt)
+
+
+def warm_up(solver: Solver, guard, state: State, scratch: State, t: float, dt: float) -> float:
+    """Compile every kernel by one throw-away step from ``state`` into ``scratch`` (which is reset
+    to ``state`` afterwards), read what the run ``guard`` (:class:`~warpsph.stages.guard.Guard`) found,
+    and clear the solver's statistics and what it booked; return its wall time [s]."""
+    start = time.perf_counter()
+    ledger = wp.clone(solver.energy.ledger)
+    with warnings.catch_warnings():  # the throw-away step reports nothing
+        warnings.simplefilter("ignore")
+        solver.step(state, scratch, t, dt)
+    guard.find(scratch)
+    wp.synchronize_device(solver.model.device)
+    scratch.assign(state)
+    solver.energy.ledger.assign(ledger)
+    solver.stage_seconds.clear()
+    if solver.projection is not None:
+        solver.projection.reset_statistics()
+    return time.perf_counter() - start

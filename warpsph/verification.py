@@ -118,8 +118,7 @@ def run_sampled(scene, sample_steps: Iterable[int], extract: Callable, device: s
 
     from warpsph.builder import build
     from warpsph.errors import SimulationError
-    from warpsph.runner import warm_up
-    from warpsph.solver import Solver
+    from warpsph.solver import Solver, warm_up
     from warpsph.stages.guard import Guard
 
     start = time.perf_counter()

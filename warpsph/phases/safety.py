@@ -11,6 +11,7 @@ from pathlib import Path
 from typing import NamedTuple
 
 from warpsph.builder import plastic_materials
+from warpsph.cluster import dask_client
 from warpsph.environment import init_warp
 from warpsph.errors import SimulationError
 from warpsph.io.run_directory import CHECKPOINT
@@ -51,8 +52,6 @@ class SafetyAnalysis(Equilibrium):
         with contextlib.ExitStack() as stack:
             client = None
             if run.scheduler or (run.trial_workers or 0) > 1:
-                from warpsph.study.execute import dask_client  # dask.distributed: an optional dependency
-
                 client = stack.enter_context(dask_client(run.scheduler, run.trial_workers))
             width = len(client.scheduler_info()["workers"]) if client is not None else 1
             search = FactorSearch(phase.factor_tolerance, phase.factor_max, run.loop.get("search"), width)

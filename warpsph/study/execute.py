@@ -12,10 +12,10 @@ from __future__ import annotations
 import json
 import os
 import time
-from contextlib import contextmanager
 from dataclasses import dataclass, field
 from pathlib import Path
 
+from warpsph.cluster import dask_client
 from warpsph.errors import InputError, SimulationError
 from warpsph.study.spec import Case, Study
 
@@ -24,7 +24,7 @@ def run_case(scene_text: str, scene_name: str, overrides: dict, metric: str, dev
     """Build and run the scene with ``overrides``, measure ``metric``; return the run's record:
     status ("finished", "unstable" or "failed": the scene could not be built), errors, extras and
     timings [s] (``wall_seconds`` counts the steps alone, ``compile_seconds`` the warm-up step)."""
-    from warpsph.bench import machine_record, timing_fields
+    from warpsph.bench.record import machine_record, timing_fields
     from warpsph.environment import init_warp
     from warpsph.scene_toml import parse_scene
     from warpsph.environment import default_device
@@ -96,24 +96,6 @@ class StudyOutcome:
     """'case id: error' of runs that raised (no record written; they run again next time)."""
     wall_seconds: float = 0.0
     """Wall time of this invocation for all its studies together [s]."""
-
-
-@contextmanager
-def dask_client(scheduler: str | None, workers: int | None):
-    """A client of the scheduler at ``scheduler``, or of a LocalCluster of ``workers`` processes
-    (default: one per core), one Dask thread each, whose row launches share the cores evenly
-    (``WARPSPH_CPU_THREADS`` = cores // workers, so concurrent runs do not oversubscribe the CPU)."""
-    from dask.distributed import Client, LocalCluster
-
-    if scheduler:
-        with Client(scheduler) as client:
-            yield client
-        return
-    n_workers = workers or os.cpu_count() or 1
-    env = {"WARPSPH_CPU_THREADS": str(max(1, (os.cpu_count() or 1) // n_workers))}
-    with LocalCluster(n_workers=n_workers, threads_per_worker=1, processes=True, env=env,
-                      dashboard_address=":0") as cluster, Client(cluster) as client:  # fmt: skip  (any free port)
-        yield client
 
 
 def run_studies(studies: list[Study], out_dir, *, scheduler: str | None = None, workers: int | None = None,

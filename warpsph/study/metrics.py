@@ -256,7 +256,7 @@ def footing_end(scene: Scene) -> float:
 
 def _measure_footing(scene: Scene, device: str) -> Measurement:
     from warpsph.probes import Probes
-    from warpsph.runner import host_fields
+    from warpsph.model import host_fields
 
     scene = footing_scene(scene)
     soil, _, _, _, _ = footing_parts(scene)

@@ -14,7 +14,7 @@ import math
 import matplotlib
 import numpy as np
 
-from warpsph.bench import markdown_table
+from warpsph.bench.record import markdown_table
 from warpsph.study.execute import StudyOutcome
 from warpsph.study.spec import COSTS, LADDER_KEY, scene_setting
 

@@ -175,9 +175,9 @@ def _check_rows(checks: list[Check]) -> list[str]:
 def _machine() -> str:
     import warp as wp
 
-    import warpsph
+    from warpsph.version import __version__
 
-    return f"warpsph {warpsph.__version__}, Warp {wp.config.version}, Python {platform.python_version()}, " \
+    return f"warpsph {__version__}, Warp {wp.config.version}, Python {platform.python_version()}, " \
            f"{platform.machine()} ({platform.processor() or platform.system()})"  # fmt: skip
 
 

@@ -2,7 +2,7 @@
 
 Each round runs, for every case (dimension, size, CPU threads), warpsph's dry two-set step and
 PySPH's elastic-solid scheme on the same block, one after the other, each in a process of its
-own (``python -m warpsph.bench`` and :mod:`warpsph.peer_pysph`), so that both see the same machine
+own (``python -m warpsph.bench`` and :mod:`warpsph.bench.peer_pysph`), so that both see the same machine
 state; each process reports its steady-state throughput (compilation and set-up excluded), its
 neighbour pairs per step and its memory. It prints the per-round ratios and their median and
 writes a JSON record. PySPH is not a dependency: it is installed on demand into a virtual
@@ -18,6 +18,8 @@ import subprocess
 import sys
 import tempfile
 from pathlib import Path
+
+from warpsph.bench.record import markdown_table
 
 PEER_VERSION = "1.0b2"
 PEER_ENV = Path(os.environ.get("XDG_CACHE_HOME", Path.home() / ".cache")) / "warpsph" / f"pysph-{PEER_VERSION}"
@@ -112,7 +114,6 @@ def compare(cases: list[tuple[int, int, int]], rounds: int, python: str | None, 
 
 def summary_table(record: dict) -> str:
     """One row per case: medians over the rounds."""
-    from warpsph.bench import markdown_table
 
     lines = []
     for dim, particles, threads in record["cases"]:

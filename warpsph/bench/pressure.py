@@ -1,4 +1,4 @@
-"""Solver evidence for the pore-pressure projection: ``python -m warpsph.bench_pressure``.
+"""Solver evidence for the pore-pressure projection: ``python -m warpsph.bench.pressure``.
 
 For each size of a ladder of particle counts it builds a 2D consolidation problem (a saturated
 elastic layer on a fixed, impermeable base between slip, impermeable sides, loaded at t = 0 by a
@@ -20,8 +20,8 @@ from pathlib import Path
 import numpy as np
 import warp as wp
 
-from warpsph.bench import (DX, SOIL, WATER, block_shape, machine_record, markdown_table, memory_bytes, timed,
-                           timing_fields, write_record)  # fmt: skip
+from warpsph.bench.record import machine_record, markdown_table, timing_fields, write_record
+from warpsph.bench.throughput import DX, SOIL, WATER, block_shape, memory_bytes, timed
 from warpsph.builder import build
 from warpsph.model import Model, State
 from warpsph.scene import (Body, Boundary, Drainage, Effects, Load, PressureSolver, Scene, Simulation,
@@ -152,7 +152,7 @@ def solver_table(results: list[dict]) -> str:
 
 # -- command line -----------------------------------------------------------------------------------
 def parse_args(argv: list[str] | None) -> argparse.Namespace:
-    p = argparse.ArgumentParser(prog="python -m warpsph.bench_pressure", description=__doc__.splitlines()[0],
+    p = argparse.ArgumentParser(prog="python -m warpsph.bench.pressure", description=__doc__.splitlines()[0],
                                 formatter_class=argparse.ArgumentDefaultsHelpFormatter)  # fmt: skip
     p.add_argument("--sizes", type=int, nargs="+", default=list(DEFAULT_SIZES), help="particle counts")
     p.add_argument("--solvers", nargs="+", choices=SOLVERS, default=list(SOLVERS), help="pressure solvers")

@@ -11,10 +11,8 @@ from __future__ import annotations
 
 import argparse
 import dataclasses
-import json
 import math
 import os
-import platform
 import resource
 import sys
 import time
@@ -22,7 +20,8 @@ from pathlib import Path
 
 import warp as wp
 
-import warpsph
+from warpsph.bench import peer
+from warpsph.bench.record import cpu_model, machine_record, markdown_table, timing_fields, write_record
 from warpsph.builder import build
 from warpsph.launching import cpu_threads, set_cpu_threads
 from warpsph.model import Model, State
@@ -207,31 +206,6 @@ def bench_size(n: int, scheme: str, effects: str, threads: int, args) -> dict:
 
 
 # -- reporting --------------------------------------------------------------------------------------
-def cpu_model() -> str:
-    """The CPU's model name (Linux /proc/cpuinfo), else platform.processor()."""
-    try:
-        for line in Path("/proc/cpuinfo").read_text().splitlines():
-            if line.startswith("model name"):
-                return line.split(":", 1)[1].strip()
-    except OSError:
-        pass
-    return platform.processor()
-
-
-def machine_record(device: str) -> dict:
-    """Where the benchmark ran."""
-    return {
-        "platform": platform.platform(),
-        "cpu": cpu_model(),
-        "cpu_count": os.cpu_count(),
-        "python": platform.python_version(),
-        "warp_version": wp.config.version,
-        "warpsph_version": warpsph.__version__,
-        "device": device,
-        "device_name": wp.get_device(device).name,
-    }
-
-
 COLUMNS = (
     ("scheme", "{scheme}"),
     ("effects", "{effects}"),
@@ -248,16 +222,6 @@ COLUMNS = (
     ("solve it/step", "{solve_iterations}"),
     ("bytes/particle", "{memory_bytes_per_particle:.0f}"),
 )
-
-
-def markdown_table(header: list[str], rows: list[list[str]]) -> str:
-    """A Markdown table with right-aligned, padded columns."""
-    widths = [max(len(c) for c in col) for col in zip(header, *rows)]
-
-    def line(cells) -> str:
-        return "| " + " | ".join(c.rjust(w) for c, w in zip(cells, widths)) + " |"
-
-    return "\n".join([line(header), "|" + "|".join("-" * (w + 1) + ":" for w in widths) + "|", *map(line, rows)])
 
 
 def throughput_table(results: list[dict]) -> str:
@@ -302,11 +266,11 @@ def parse_args(argv: list[str] | None) -> argparse.Namespace:
     p.add_argument("--quick", action="store_true", help=f"sizes {QUICK_SIZES}, {QUICK_STEPS} steps (a smoke test)")
     p.add_argument("--json", type=Path, default=Path("bench_results.json"), help="where to write the results")
     p.add_argument("--peer", choices=("pysph",), default=None,
-                   help="side by side with PySPH's elastic scheme, interleaved (warpsph/bench_peer.py); "
+                   help="side by side with PySPH's elastic scheme, interleaved (warpsph/peer.py); "
                         "--dim 2 3 picks the blocks, --threads the thread counts")
     p.add_argument("--rounds", type=int, default=2, help="--peer: interleaved rounds (the table gives medians)")
     p.add_argument("--peer-python", default=None,
-                   help="--peer: a Python that imports pysph (default: installed on demand, bench_peer.PEER_ENV)")
+                   help="--peer: a Python that imports pysph (default: installed on demand, peer.PEER_ENV)")
     args = p.parse_args(argv)
     if args.peer is None:
         if len(args.dim) > 1:
@@ -363,37 +327,15 @@ def main(argv: list[str] | None = None) -> int:
 
 
 def peer_main(args) -> int:
-    """``--peer pysph``: warpsph and PySPH interleaved on the same blocks (warpsph/bench_peer.py)."""
-    from warpsph import bench_peer
-
-    cases = [(dim, n, t) for dim in args.dim for n in (args.sizes or [bench_peer.PEER_SIZES[dim]])
+    """``--peer pysph``: warpsph and PySPH interleaved on the same blocks (warpsph/peer.py)."""
+    cases = [(dim, n, t) for dim in args.dim for n in (args.sizes or [peer.PEER_SIZES[dim]])
              for t in args.threads]  # fmt: skip
     print(f"{cpu_model()} ({os.cpu_count()} CPUs): warpsph (dry two-set step, float64) against PySPH "
-          f"{bench_peer.PEER_VERSION} (elastic solids, EPEC), {args.rounds} interleaved rounds")  # fmt: skip
-    record = bench_peer.compare(cases, args.rounds, args.peer_python, args.steps)
-    print("\n" + bench_peer.summary_table(record))
+          f"{peer.PEER_VERSION} (elastic solids, EPEC), {args.rounds} interleaved rounds")  # fmt: skip
+    record = peer.compare(cases, args.rounds, args.peer_python, args.steps)
+    print("\n" + peer.summary_table(record))
     write_record(args.json, {"machine": machine_record("cpu"), "settings": vars(args), **record})
     return 0
-
-
-def timing_fields(particles: int, steps: int, dt: float, build_s: float, compile_s: float, wall: float) -> dict:
-    """The timing entries every benchmark row carries (times in s)."""
-    return {
-        "time_step": dt,
-        "steps": steps,
-        "build_seconds": build_s,
-        "compile_seconds": compile_s,
-        "wall_seconds": wall,
-        "seconds_per_step": wall / steps,
-        "particle_steps_per_second": particles * steps / wall,
-    }
-
-
-def write_record(path, record: dict) -> None:
-    """Write a benchmark record as JSON to ``path`` and say so."""
-    path.parent.mkdir(parents=True, exist_ok=True)
-    path.write_text(json.dumps(record, indent=2, default=str))
-    print(f"\nwrote {path}")
 
 
 if __name__ == "__main__":

@@ -1,4 +1,4 @@
-"""CPU threading of the pressure solve, A/B in one process: ``python -m warpsph.bench_solve``.
+"""CPU threading of the pressure solve, A/B in one process: ``python -m warpsph.bench.solve``.
 
 The saturated step of ``warpsph.bench``'s block with the solve on the device-resident
 one-thread-per-row kernels (``projection.linear.blocked = False``: the GPU path) or on the blocked,
@@ -31,7 +31,7 @@ def main(argv=None) -> None:
     wp.config.quiet = True
     import warpsph.stages.pressure as pressure
     from warpsph import launching
-    from warpsph.bench import block_scene
+    from warpsph.bench.throughput import block_scene
     from warpsph.builder import build
     from warpsph.solver import Solver
 
