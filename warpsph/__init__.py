@@ -37,4 +37,4 @@ def __dir__():
 
 __all__ = ["Body", "Boundary", "Effects", "InputError", "Load", "Material", "Output", "Probe", "Region", "Run",
            "Scene", "SceneError", "Simulation", "SimulationError", "Solver", "TimeFunction", "build",
-           "load_results", "load_scene", "parse_scene", "run_scene"]  # fmt: skip
+           "__version__", "load_results", "load_scene", "parse_scene", "run_scene"]  # fmt: skip

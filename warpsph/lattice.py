@@ -13,7 +13,7 @@ from collections.abc import Iterator
 
 import numpy as np
 
-from warpsph.scene import Body
+from warpsph.scene_sections import Body
 
 TOLERANCE = 1e-9
 """Boundary tolerance, as a fraction of Δx."""

@@ -6,18 +6,15 @@ their ``name`` (``bodies.column.material``), or by their index when the name its
 (``bodies[0].name``). Messages say what is accepted and what was given:
 ``materials.soil.poisson_ratio: must be in (-1, 0.5), got 0.6``.
 
-The type helpers here (:func:`convert`, :func:`field_hints`, :func:`item_key`, :func:`show`, ...)
-are shared with :mod:`warpsph.scene_toml`, which uses them to convert TOML values.
+Values are converted to their fields' types by :mod:`warpsph.scene_types`; a phase's ``changes`` are
+typed here, once (:func:`validate_scene`).
 """
 
 from __future__ import annotations
 
+import copy
 import dataclasses
-import functools
 import math
-import numbers
-import re
-import types
 import typing
 from collections.abc import Iterable, Sequence
 from decimal import Decimal
@@ -27,26 +24,15 @@ import numpy as np
 from warpsph.errors import SceneError, SceneWarning
 from warpsph.lattice import has_lattice_point, lattice_span, polygon_area, used_axes
 from warpsph.physics.retention import RETENTION
-from warpsph.scene import (
-    AXES,
-    Body,
-    Boundary,
-    Drainage,
-    Effects,
-    Load,
-    Material,
-    Output,
-    IMPLICIT_PHASE_KINDS,
-    PHASE_KINDS,
-    Phase,
-    PressureSolver,
-    Probe,
-    Region,
-    Reservoir,
-    Scene,
-    Simulation,
-    TimeFunction,
-)
+from warpsph.phases import SWITCHED, change_target, phase_label, phase_scene
+from warpsph.scene_sections import (AXES, IMPLICIT_PHASE_KINDS, PHASE_KINDS, Body, Boundary, Drainage, Effects, Load,
+                                    Material, Output, Phase, PressureSolver, Probe, Region, Reservoir, Simulation,
+                                    TimeFunction)  # fmt: skip
+from warpsph.scene_types import (NAME, as_string, check_instance, check_types, convert_field, is_list, item_key,
+                                 number_text, show)  # fmt: skip
+
+if typing.TYPE_CHECKING:
+    from warpsph.scene import Scene
 
 PROBE_FIELDS = (
     *(f"velocity_{a}" for a in AXES),
@@ -64,64 +50,11 @@ PORE_WATER_FIELDS = ("pore_pressure", "darcy_velocity")
 PLASTICITY_FIELDS = ("plastic_strain",)
 """Probe and output fields that need ``effects.plasticity``."""
 YIELD_FUNCTIONS = ("von_mises", "drucker_prager", "mohr_coulomb")
-UNBOUNDED_FIELDS = {
-    (Simulation, "velocity_limit"),
-    (Region, "min"),
-    (Region, "max"),
-    (Material, "grain_bulk_modulus"),
-    (Material, "water_bulk_modulus"),
-}
-"""Number fields that may be ±infinity (all others must be finite)."""
 MIN_MODULUS = 1.0e3
 """Moduli below this [Pa] are taken for a unit mistake (kPa or MPa written as Pa)."""
 MAX_PARTICLES = 2**31 - 1
 """A run indexes particles with 32-bit integers; a body spanning more lattice points is refused before
 its points are listed (a dx written in mm as metres would otherwise exhaust memory or time)."""
-
-_NAME = re.compile(r"[A-Za-z0-9_-]+")
-
-
-# --------------------------------------------------------------------------- rendering
-
-
-def show(value) -> str:
-    """A value as it would be written in a scene file (strings quoted, booleans lower case)."""
-    if isinstance(value, (bool, np.bool_)):
-        return "true" if value else "false"
-    if isinstance(value, str):
-        return '"' + value.replace("\\", "\\\\").replace('"', '\\"') + '"'
-    if isinstance(value, numbers.Integral):
-        return str(int(value))
-    if isinstance(value, numbers.Real):
-        return _number_text(float(value))
-    if isinstance(value, (list, tuple, np.ndarray)):
-        return "[" + ", ".join(show(v) for v in value) + "]"
-    if isinstance(value, dict):
-        return "{" + ", ".join(f"{k} = {show(v)}" for k, v in value.items()) + "}"
-    if value is None:
-        return "nothing"
-    return type(value).__name__
-
-
-def _number_text(x: float) -> str:
-    if math.isnan(x):
-        return "nan"
-    if math.isinf(x):
-        return "inf" if x > 0 else "-inf"
-    return repr(x)
-
-
-def join_key(key: str, name: str) -> str:
-    """``key.name``, or ``name`` at the top level."""
-    return f"{key}.{name}" if key else name
-
-
-def item_key(section: str, name, index: int) -> str:
-    """Key path of a named list item: ``section.name``, or ``section[index]`` if the name is unusable."""
-    if isinstance(name, str) and _NAME.fullmatch(name):
-        return f"{section}.{name}"
-    return f"{section}[{index}]"
-
 
 # --------------------------------------------------------------------------- generic value checks
 
@@ -141,7 +74,7 @@ class Interval:
         return above and below
 
     def __str__(self) -> str:
-        lo, hi = _number_text(self.lo).removesuffix(".0"), _number_text(self.hi).removesuffix(".0")
+        lo, hi = number_text(self.lo).removesuffix(".0"), number_text(self.hi).removesuffix(".0")
         if math.isinf(self.hi):
             return f"{'>=' if self.lo_closed else '>'} {lo}"
         if math.isinf(self.lo):
@@ -187,127 +120,8 @@ def check_unique(what: str, *sections: tuple[str, Sequence]) -> None:
 
 def check_name(key: str, name) -> None:
     """Raise unless ``name`` is a non-empty string of letters, digits, '_' and '-'."""
-    if not isinstance(name, str) or not _NAME.fullmatch(name):
+    if not isinstance(name, str) or not NAME.fullmatch(name):
         raise SceneError(key, f"must be a non-empty string of letters, digits, '_' or '-', got {show(name)}")
-
-
-# --------------------------------------------------------------------------- types and conversion
-
-
-def as_number(key: str, value, finite: bool = True) -> float:
-    """``value`` as a float; booleans are not numbers; NaN never, infinities only if not ``finite``."""
-    if isinstance(value, (bool, np.bool_)) or not isinstance(value, numbers.Real):
-        raise SceneError(key, f"expected a number, got {show(value)}")
-    x = float(value)
-    if math.isnan(x) or (finite and math.isinf(x)):
-        raise SceneError(key, f"expected a finite number, got {show(value)}")
-    return x
-
-
-def as_integer(key: str, value) -> int:
-    """``value`` as an int (booleans and floats are refused)."""
-    if isinstance(value, (bool, np.bool_)) or not isinstance(value, numbers.Integral):
-        raise SceneError(key, f"expected an integer, got {show(value)}")
-    return int(value)
-
-
-def as_bool(key: str, value) -> bool:
-    """``value`` as a bool (true or false, not numbers)."""
-    if not isinstance(value, (bool, np.bool_)):
-        raise SceneError(key, f"expected true or false, got {show(value)}")
-    return bool(value)
-
-
-def as_string(key: str, value) -> str:
-    """``value`` as a str."""
-    if not isinstance(value, str):
-        raise SceneError(key, f"expected a string, got {show(value)}")
-    return value
-
-
-def as_numbers(key: str, value, size: int, pad: bool, finite: bool = True) -> tuple[float, ...]:
-    """A list of ``size`` numbers as a tuple; with ``pad`` 1..``size`` numbers, zero-padded."""
-    fewest = 1 if pad else size
-    wanted = f"{fewest} to {size} numbers" if fewest < size else f"{size} numbers"
-    if not _is_list(value) or not fewest <= len(value) <= size:
-        raise SceneError(key, f"expected a list of {wanted}, got {show(value)}")
-    xs = tuple(as_number(f"{key}[{i}]", v, finite) for i, v in enumerate(value))
-    return xs + (0.0,) * (size - len(xs))
-
-
-def convert(key: str, value, hint, pad: bool = False, finite: bool = True):
-    """Check ``value`` against a dataclass field's leaf type ``hint`` and convert it to that type.
-
-    Leaf types are float, int, bool, str, fixed-size tuples of floats and lists of those. With
-    ``pad`` (scene files), 3-component vectors may be written with 1 to 3 numbers.
-    """
-    origin, args = typing.get_origin(hint), typing.get_args(hint)
-    if hint is float:
-        return as_number(key, value, finite)
-    if hint is int:
-        return as_integer(key, value)
-    if hint is bool:
-        return as_bool(key, value)
-    if hint is str:
-        return as_string(key, value)
-    if origin is tuple:
-        return as_numbers(key, value, len(args), pad and len(args) == 3, finite)
-    if origin is list:
-        if not _is_list(value):
-            raise SceneError(key, f"expected a list, got {show(value)}")
-        return [convert(f"{key}[{i}]", v, args[0], pad, finite) for i, v in enumerate(value)]
-    if origin is dict and args[1] is object:  # key paths to values, checked where they are applied
-        if not isinstance(value, dict) or not all(isinstance(k, str) for k in value):
-            raise SceneError(key, f"expected a table of key paths and values, got {show(value)}")
-        return dict(value)
-    raise TypeError(f"{key}: unsupported field type {hint!r}")
-
-
-@functools.cache
-def field_hints(cls) -> dict[str, object]:
-    """Resolved type hints of the dataclass ``cls``'s fields, in declaration order."""
-    hints = typing.get_type_hints(cls)
-    return {f.name: hints[f.name] for f in dataclasses.fields(cls)}
-
-
-def optional_inner(hint):
-    """``X`` for a hint ``X | None``, else None."""
-    if isinstance(hint, types.UnionType) or typing.get_origin(hint) is typing.Union:
-        args = [a for a in typing.get_args(hint) if a is not type(None)]
-        if len(args) == 1:
-            return args[0]
-    return None
-
-
-def is_finite_field(cls, name: str) -> bool:
-    """Whether the number field ``cls.name`` must be finite."""
-    return (cls, name) not in UNBOUNDED_FIELDS
-
-
-def check_types(obj, key: str) -> None:
-    """Check every field of the dataclass instance ``obj`` (recursively) against its declared type."""
-    for name, hint in field_hints(type(obj)).items():
-        value, field_key = getattr(obj, name), join_key(key, name)
-        inner = optional_inner(hint)
-        if inner is not None:
-            if value is None:
-                continue
-            hint = inner
-        if dataclasses.is_dataclass(hint):
-            check_instance(field_key, value, hint)
-            check_types(value, field_key)
-        else:
-            convert(field_key, value, hint, finite=is_finite_field(type(obj), name))
-
-
-def check_instance(key: str, value, cls) -> None:
-    """Raise unless ``value`` is a ``cls`` instance (for Python-built scenes)."""
-    if not isinstance(value, cls):
-        raise SceneError(key, f"expected a {cls.__name__}, got {type(value).__name__}")
-
-
-def _is_list(value) -> bool:
-    return isinstance(value, (list, tuple, np.ndarray))
 
 
 # --------------------------------------------------------------------------- the scene
@@ -317,8 +131,7 @@ def validate_scene(scene: Scene) -> None:
     """Check ``scene``; raise :class:`SceneError` naming the key path of the first problem. A scene
     with phases is checked as each phase runs it: the first phase's problems name the plain key, a
     later phase's are prefixed ``phases.<name>:``."""
-    check_instance("", scene, Scene)
-    if not _is_list(scene.phases):
+    if not is_list(scene.phases):
         raise SceneError("phases", f"expected a list of phases, got {type(scene.phases).__name__}")
     if scene.phases:
         _check_phases(scene)
@@ -390,9 +203,8 @@ def _validate_one_phase(scene: Scene) -> None:
 
 
 def _check_phases(scene: Scene) -> None:
-    """The phases' own keys, then every phase's scene (:func:`warpsph.phases.phase_scene`)."""
-    from warpsph.phases import SWITCHED, phase_scene
-
+    """The phases' own keys and changes (typed in place), then every phase's scene
+    (:func:`warpsph.phases.phase_scene`)."""
     phases = _named_items(scene, "phases", Phase)
     check_unique("phase", ("phases", phases))
     items = {section: [getattr(item, "name", None) for item in getattr(scene, section)] for section in SWITCHED}
@@ -425,6 +237,7 @@ def _check_phases(scene: Scene) -> None:
                                      f"defined: {', '.join(sorted(map(str, known))) or 'none'}")  # fmt: skip
         if phase.kind == "k0" and i != 0:
             raise SceneError(f"{key}.kind", '"k0" sets the initial stresses: it is accepted for the first phase only')
+    _type_changes(scene)
     for i, phase in enumerate(phases):
         key = item_key("phases", phase.name, i)
         staged = phase_scene(scene, i)
@@ -443,6 +256,21 @@ def _check_phases(scene: Scene) -> None:
             if i == 0:
                 raise
             raise SceneError(key, f"{e.key}: {e.message}" if e.key else e.message) from None
+
+
+def _type_changes(scene: Scene) -> None:
+    """Convert each phase's ``changes`` to the types of the keys they set, in place (checked and converted
+    as a scene file's values; errors name ``phases.<name>.changes.<key path>``), applying them in turn
+    so that a key under an item a change replaced is found."""
+    staged = copy.deepcopy(scene)
+    staged.phases = []
+    for i, phase in enumerate(scene.phases):
+        where = f"phases.{phase_label(phase, i)}.changes"
+        for path, value in phase.changes.items():
+            owner, name = change_target(staged, path, where)
+            typed = convert_field(type(owner), name, f"{where}.{path}", value)
+            setattr(owner, name, typed)
+            phase.changes[path] = typed
 
 
 def _check_flow_phase(phase: Phase, key: str, scene: Scene) -> None:

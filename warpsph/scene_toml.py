@@ -13,7 +13,6 @@ or ``grain_density``, from which ``density`` is set to the mixture (1 − n) ρ_
 
 from __future__ import annotations
 
-import dataclasses
 import re
 import tomllib
 import typing
@@ -22,17 +21,8 @@ from pathlib import Path
 
 from warpsph.errors import SceneError
 from warpsph.scene import Scene
-from warpsph.scene_check import (
-    convert,
-    field_hints,
-    is_finite_field,
-    item_key,
-    join_key,
-    mixture_density,
-    optional_inner,
-    show,
-    validate_scene,
-)
+from warpsph.scene_check import mixture_density, validate_scene
+from warpsph.scene_types import field_hints, from_table
 
 
 def load_scene(path: str | Path, overrides: Mapping[str, object] | None = None) -> Scene:
@@ -70,7 +60,7 @@ def parse_scene(text: str, name: str = "scene", overrides: Mapping[str, object] 
     if overrides:
         apply_overrides(document, overrides)
         text += "".join(f"\n# override: {key} = {value!r}" for key, value in overrides.items()) + "\n"
-    scene = _from_table(Scene, "", document, exclude=("source_text",))
+    scene = from_table(Scene, "", document, exclude=("source_text",))
     _set_mixture_densities(scene, document)
     if "name" not in document:
         scene.name = name
@@ -148,55 +138,3 @@ def _set_mixture_densities(scene: Scene, document: dict) -> None:
                 f"materials.{key}.grain_density", "give either density (the mixture) or grain_density, not both"
             )
         material.density = mixture_density(material)
-
-
-def _from_table(cls, key: str, table, exclude: tuple[str, ...] = (), **given):
-    """Build the dataclass ``cls`` from the TOML table at ``key``; ``given`` fills excluded fields."""
-    if not isinstance(table, dict):
-        raise SceneError(key, f"expected a table, got {show(table)}")
-    hints = {n: h for n, h in field_hints(cls).items() if n not in exclude}
-    for k in table:
-        if k not in hints:
-            what = "key" if key else "section"
-            raise SceneError(join_key(key, k), f"unknown {what}; accepted: {', '.join(sorted(hints))}")
-    values = {n: _from_value(cls, n, join_key(key, n), table[n], hints[n]) for n in hints if n in table}
-    return cls(**values, **given)
-
-
-def convert_field(owner, name: str, key: str, value):
-    """The TOML ``value`` of field ``owner.name`` converted as a scene file's, errors naming ``key``."""
-    return _from_value(owner, name, key, value, field_hints(owner)[name])
-
-
-def _from_value(owner, name: str, key: str, value, hint):
-    """Convert the TOML value of field ``owner.name`` (type ``hint``) found at ``key``."""
-    hint = optional_inner(hint) or hint
-    origin, args = typing.get_origin(hint), typing.get_args(hint)
-    if dataclasses.is_dataclass(hint):
-        return _from_table(hint, key, value)
-    if origin is dict and args[1] is not object:
-        return _named_tables(key, value, args[1])
-    if origin is list and dataclasses.is_dataclass(args[0]):
-        return _array_of_tables(key, value, args[0])
-    return convert(key, value, hint, pad=True, finite=is_finite_field(owner, name))
-
-
-def _named_tables(key: str, value, cls) -> dict:
-    """``[key.<name>]`` tables as {name: cls(name=name, ...)}."""
-    if not isinstance(value, dict):
-        raise SceneError(key, f"expected tables [{key}.<name>], got {show(value)}")
-    return {k: _from_table(cls, f"{key}.{k}", v, exclude=("name",), name=k) for k, v in value.items()}
-
-
-def _array_of_tables(key: str, value, cls) -> list:
-    """``[[key]]`` tables as a list of cls; a missing name defaults to e.g. "body0", "body1", ..."""
-    if not isinstance(value, list):
-        raise SceneError(key, f"expected an array of tables [[{key}]], got {show(value)}")
-    items = []
-    for i, table in enumerate(value):
-        if not isinstance(table, dict):
-            raise SceneError(f"{key}[{i}]", f"expected a table, got {show(table)}")
-        name = table.get("name", f"{cls.__name__.lower()}{i}")
-        given = {} if "name" in table else {"name": name}
-        items.append(_from_table(cls, item_key(key, name, i), table, **given))
-    return items

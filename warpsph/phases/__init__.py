@@ -6,7 +6,9 @@ models, ``search`` strength reduction and the factor-of-safety search (docs/scen
 
 from warpsph.phases.search import FactorSearch, reduced_strength
 from warpsph.phases.staging import (AT_REST, CONVERGED, FINISHED, NOT_CONVERGED, STOPPED, SWITCHED, UNSTABLE,
-                                    PhaseRecord, active_items, default_phases, phase_scene, set_key)  # fmt: skip
+                                    PhaseRecord, active_items, change_target, default_phases, phase_label, phase_scene,
+                                    set_key)  # fmt: skip
 
 __all__ = ["AT_REST", "CONVERGED", "FINISHED", "NOT_CONVERGED", "STOPPED", "SWITCHED", "UNSTABLE", "FactorSearch",
-           "PhaseRecord", "active_items", "default_phases", "phase_scene", "reduced_strength", "set_key"]  # fmt: skip
+           "PhaseRecord", "active_items", "change_target", "default_phases", "phase_label", "phase_scene",
+           "reduced_strength", "set_key"]  # fmt: skip

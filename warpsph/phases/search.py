@@ -5,7 +5,7 @@ from __future__ import annotations
 import dataclasses
 import math
 
-from warpsph.scene import Material
+from warpsph.scene_sections import Material
 
 
 def reduced_strength(material: Material, factor: float) -> Material:

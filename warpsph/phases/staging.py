@@ -7,9 +7,13 @@ from __future__ import annotations
 import copy
 import dataclasses
 from dataclasses import dataclass, field
+from typing import TYPE_CHECKING
 
 from warpsph.errors import SceneError
-from warpsph.scene import Phase, Scene
+from warpsph.scene_sections import Phase
+
+if TYPE_CHECKING:
+    from warpsph.scene import Scene
 
 SWITCHED = ("bodies", "loads", "boundaries")
 """The sections whose items a phase activates or deactivates by name."""
@@ -69,7 +73,7 @@ def phase_scene(scene: Scene, index: int) -> Scene:
     out.phases = []
     for k, phase in enumerate(scene.phases[: index + 1]):
         for path, value in phase.changes.items():
-            set_key(out, path, value, f"phases.{_label(phase, k)}.changes")
+            set_key(out, path, value, f"phases.{phase_label(phase, k)}.changes")
     on = active_items(scene, index)
     for section in SWITCHED:
         setattr(out, section, [item for item in getattr(out, section) if item.name in on[section]])
@@ -78,15 +82,21 @@ def phase_scene(scene: Scene, index: int) -> Scene:
     return out
 
 
-def _label(phase: Phase, index: int) -> str:
+def phase_label(phase: Phase, index: int) -> str:
+    """How messages name phase ``index``: its name, or ``[index]`` without a usable one."""
     return phase.name if isinstance(phase.name, str) and phase.name else f"[{index}]"
 
 
 def set_key(scene: Scene, path: str, value, where: str) -> None:
-    """Set the scene key ``path`` (``materials.soil.cohesion``, ``loads.top.traction``, ...) to
-    ``value``, converted and checked as a scene file's value; errors name ``where.path``."""
-    from warpsph.scene_toml import convert_field  # the TOML reader's conversions (it imports this module's users)
+    """Set the scene key ``path`` (``materials.soil.cohesion``, ``loads.top.traction``, ...) to ``value``,
+    a value of the key's type (a validated phase's changes are: :func:`warpsph.scene.Scene.validate`)."""
+    owner, name = change_target(scene, path, where)
+    setattr(owner, name, value)
 
+
+def change_target(scene: Scene, path: str, where: str) -> tuple[object, str]:
+    """The dataclass instance of ``scene`` that holds the key ``path`` and the key's field name; errors
+    name ``where.path``."""
     key = f"{where}.{path}"
     parts = path.split(".")
     if not all(parts) or len(parts) < 2:
@@ -112,7 +122,7 @@ def set_key(scene: Scene, path: str, value, where: str) -> None:
     last = parts[-1]
     if not dataclasses.is_dataclass(node) or last not in _fields(node) or last == "name":
         raise SceneError(key, f"{path} is not a scene key that a phase can change")
-    setattr(node, last, convert_field(type(node), last, key, value))
+    return node, last
 
 
 def _fields(obj) -> set[str]:

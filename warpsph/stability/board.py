@@ -16,7 +16,7 @@ import warp as wp
 
 from warpsph.errors import SceneError, SimulationError
 from warpsph.scene import Scene, Simulation
-from warpsph.scene_toml import convert_field
+from warpsph.scene_types import convert_field
 from warpsph.stages.energy import BALANCE_WARNING
 
 COMMAND = "python -m warpsph.stability"

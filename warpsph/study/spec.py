@@ -38,7 +38,7 @@ from warpsph.errors import SceneError
 from warpsph.scene import Scene
 from warpsph.scene_toml import parse_scene
 from warpsph.study.metrics import METRICS, PLANNED_METRICS, Metric
-from warpsph.scene_check import show
+from warpsph.scene_types import show
 
 SECTIONS = ("axes", "fixed", "study", "sweeps")
 STUDY_KEYS = ("cost", "description", "error", "metric", "name", "scene")
