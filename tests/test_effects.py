@@ -4,11 +4,12 @@ array and launches no projection or plasticity kernel."""
 import dataclasses
 
 import numpy as np
+import pytest
 
 from warpsph.builder import build
 from warpsph.launching import record_launches
 from warpsph.scene_toml import load_scene
-from warpsph.solver import Solver
+from warpsph.solver import Solver, SolverConfig, stage_names
 
 FORBIDDEN = ("pressure", "projection", "pore", "plastic", "yield")
 
@@ -96,3 +97,22 @@ def test_a_flow_phase_runs_the_groundwater_kernels_only(scenes_dir, tmp_path):
         run.calculation.calculate(None)
     assert any("half_step" in k for k in launched)
     assert not [k for k in launched if "flow" in k or "retention" in k]
+
+
+def test_the_stage_list_is_read_in_one_place(scenes_dir):
+    """stage_names gives a step's stages in order from the options alone; the solver runs that list."""
+    scene = load_scene(scenes_dir / "terzaghi.toml")
+    config = SolverConfig.of(scene)
+    assert stage_names(config) == ["ghosts", "neighbours", "corrections", "taylor_half_step", "virtual_ghosts",
+                                   "taylor_full_step", "prescribed_values", "pressure_projection", "boundary_work"]
+    every = dataclasses.replace(config, particle_shifting=0.1, hourglass_control=0.1, virtual_density="real_motion",
+                                damping=0.8, fixed_pore_pressure=True)  # fmt: skip
+    assert stage_names(every) == ["ghosts", "neighbours", "corrections", "taylor_half_step", "virtual_ghosts",
+                                  "shifting", "taylor_full_step", "hourglass_control", "virtual_continuity",
+                                  "prescribed_values", "boundary_work", "local_damping"]  # fmt: skip
+    assert stage_names(dataclasses.replace(config, scheme="collocated", pore_water=False)) == [
+        "ghosts", "neighbours", "runge_kutta", "prescribed_values", "boundary_work"]
+    damped = Solver(build(scene)[0], damping=0.8, pore_pressure="fixed")
+    assert damped.stage_names == stage_names(damped.config) and damped.config.velocity_filter == 0.5
+    with pytest.raises(dataclasses.FrozenInstanceError):
+        damped.config.dx = 1.0

@@ -1,10 +1,8 @@
-"""The solver: a time step as an ordered list of named stages.
+"""The solver: a time step as the ordered list of named stages :func:`stage_names` gives.
 
-``Solver(model).step(state_in, state_out, t, dt)`` advances from tⁿ = t to tⁿ⁺¹ = t + Δt; the
-caller swaps the states. Which stages exist follows the model's :class:`~warpsph.sph.spec.Spec`
-(scheme and effects), and an equilibrium phase adds local damping; each stage only launches kernels
-of its own module. With ``profile=True``
-every stage is synchronised and timed into ``stage_seconds``.
+``Solver(model).step(state_in, state_out, t, dt)`` advances from tⁿ = t to tⁿ⁺¹ = t + Δt; the caller
+swaps the states. The step's options are a :class:`SolverConfig`, read once from the scene and the
+phase. With ``profile=True`` every stage is synchronised and timed into ``stage_seconds``.
 """
 
 from __future__ import annotations
@@ -37,6 +35,66 @@ from warpsph.stages.pressure import PressureProjection
 from warpsph.stages.taylor import taylor_kernels
 
 
+@dataclass(frozen=True, kw_only=True)
+class SolverConfig:
+    """The step's options, read once from the scene and the phase (docs/scenes.md): the stages launch
+    with these, never with the scene's values."""
+
+    scheme: str
+    """"two_set" or "collocated" (``simulation.scheme``)."""
+    pore_water: bool
+    """The pore_water effect: a pressure projection (two-set scheme)."""
+    large_deformation: bool
+    virtual_points: str
+    """"advected" or "regenerated" (``simulation.virtual_points``)."""
+    virtual_density: str
+    particle_velocity: str
+    free_surface_threshold: float
+    artificial_viscosity: float
+    particle_shifting: float
+    stress_filter: float
+    velocity_filter: float
+    """The full step's β: ``simulation.velocity_filter``, at least ``EQUILIBRIUM_VELOCITY_FILTER`` when damped."""
+    hourglass_control: float
+    dx: float
+    """Δx [m]."""
+    damping: float | None = None
+    """The coefficient α of an equilibrium phase's local damping (None: undamped)."""
+    fixed_pore_pressure: bool = False
+    """The pore pressures are held (a phase's ``pore_pressure = "fixed"``, with pore water): no
+    projection, and the total stress carries Bishop's χ p_w of the state's pressures."""
+
+    @classmethod
+    def of(cls, scene, damping: float | None = None, pore_pressure: str = "coupled") -> SolverConfig:
+        """The options of ``scene``'s steps in a phase damped by ``damping`` (None: undamped), with its
+        pore pressures "coupled" or "fixed"."""
+        sim = scene.simulation
+        velocity_filter = sim.velocity_filter if damping is None else max(sim.velocity_filter,
+                                                                          EQUILIBRIUM_VELOCITY_FILTER)  # fmt: skip
+        return cls(scheme=sim.scheme, pore_water=scene.effects.pore_water, large_deformation=sim.large_deformation,
+                   virtual_points=sim.virtual_points, virtual_density=sim.virtual_density,
+                   particle_velocity=sim.particle_velocity, free_surface_threshold=sim.free_surface_threshold,
+                   artificial_viscosity=sim.artificial_viscosity, particle_shifting=sim.particle_shifting,
+                   stress_filter=sim.stress_filter, velocity_filter=velocity_filter,
+                   hourglass_control=sim.hourglass_control, dx=sim.dx, damping=damping,
+                   fixed_pore_pressure=pore_pressure == "fixed" and scene.effects.pore_water)  # fmt: skip
+
+
+def stage_names(config: SolverConfig) -> list[str]:
+    """A step's stages in order for the scheme, effects and phase of ``config`` (docs/method.md)."""
+    if config.scheme == "collocated":
+        names = ["ghosts", "neighbours", "runge_kutta", "prescribed_values"]
+    else:
+        names = ["ghosts", "neighbours", "corrections", "taylor_half_step", "virtual_ghosts",
+                 *(["shifting"] if config.particle_shifting > 0.0 else []),
+                 "taylor_full_step",
+                 *(["hourglass_control"] if config.hourglass_control > 0.0 else []),
+                 *(["virtual_continuity"] if config.virtual_density == "real_motion" else []),
+                 "prescribed_values",
+                 *(["pressure_projection"] if config.pore_water and not config.fixed_pore_pressure else [])]
+    return names + ["boundary_work", *(["local_damping"] if config.damping is not None else [])]
+
+
 @dataclass
 class Stage:
     """A named part of a step: ``run(state_in, state_out, t, dt)``."""
@@ -51,10 +109,11 @@ class Solver:
     def __init__(self, model: Model, profile: bool = False, damping: float | None = None,
                  pore_pressure: str = "coupled"):  # fmt: skip
         self.model = model
-        self.fixed_pore_pressure = pore_pressure == "fixed" and model.pore is not None
-        """The pore pressures are held (a phase's ``pore_pressure = "fixed"``): no projection, and the
-        total stress carries Bishop's χ p_w of the state's pressures (``held_pressure``)."""
+        self.config = SolverConfig.of(model.scene, damping, pore_pressure)
+        c = self.config
+        self.fixed_pore_pressure = c.fixed_pore_pressure
         self.held_pressure: wp.array | None = None
+        """The pore pressures held with ``fixed_pore_pressure``: Bishop's χ p_w of a state's."""
         self.profile = profile
         self.stage_seconds: dict[str, float] = {}
         self.boundaries = Boundaries(model)
@@ -64,8 +123,8 @@ class Solver:
         s = model.spec
         self.layout: GhostLayout | None = None
         """Re-plans the ghosts as the body moves (``simulation.large_deformation`` only)."""
-        if model.scene.simulation.large_deformation:
-            regenerate = s.scheme == "two_set" and model.scene.simulation.virtual_points == "regenerated"
+        if c.large_deformation:
+            regenerate = s.scheme == "two_set" and c.virtual_points == "regenerated"
             regenerator = VirtualRegenerator(model) if regenerate else None
             self.layout = GhostLayout(model, self.boundaries.plane_position, regenerator,
                                       functools.partial(rigid_region_members, model.scene))  # fmt: skip
@@ -78,15 +137,21 @@ class Solver:
         self._moving_reservoirs = model.pore is not None and any(
             r.time_function.kind != "constant" for r in model.pore.reservoirs)
         """Whether a reservoir's level changes in time (its level is then set every step)."""
-        self.stages.append(Stage("boundary_work", self._boundary_work))
         self.damping: LocalDamping | None = None
         """Local damping of an equilibrium phase (``damping`` = its coefficient α), the last stage."""
-        self.velocity_filter = model.scene.simulation.velocity_filter
-        """The full step's velocity filter β: at least ``EQUILIBRIUM_VELOCITY_FILTER`` in equilibrium phases."""
         if damping is not None:
-            self.velocity_filter = max(self.velocity_filter, EQUILIBRIUM_VELOCITY_FILTER)
             self.damping = LocalDamping(model, damping, self.energy.ledger)
-            self.stages.append(Stage("local_damping", lambda si, so, t, dt: self.damping.run(si, so, dt)))
+        runs = {"ghosts": self._ghosts_two_set, "neighbours": self._neighbours_two_set,
+                "corrections": self._corrections, "taylor_half_step": self._half_step,
+                "virtual_ghosts": self._virtual_ghosts, "shifting": self._shifting, "taylor_full_step": self._full_step,
+                "hourglass_control": lambda si, so, t, dt: self.hourglass.run(si, so, dt),
+                "virtual_continuity": self._virtual_continuity, "prescribed_values": self._prescribe,
+                "pressure_projection": self._project, "boundary_work": self._boundary_work,
+                "local_damping": lambda si, so, t, dt: self.damping.run(si, so, dt)}  # fmt: skip
+        if s.scheme != "two_set":
+            runs.update(ghosts=self._ghosts_collocated, neighbours=self._neighbours_collocated,
+                        runge_kutta=self._runge_kutta)  # fmt: skip
+        self.stages = [Stage(name, runs[name]) for name in stage_names(c)]
 
     def _neighbour_list(self, same_set: bool = False) -> NeighbourList:
         """A neighbour list within the support, built in turn with the solver's others (one scratch)."""
@@ -109,41 +174,25 @@ class Solver:
         self.real_fits = FitData(s, m.particle_capacity, dev)
         self.virtual_fits = FitData(s, m.virtual_capacity, dev)
         self.virtual_rate = wp.zeros(m.virtual_capacity, dtype=s.real, device=dev)
-        self.shifting = m.scene.simulation.particle_shifting > 0.0
+        self.shifting = self.config.particle_shifting > 0.0
         self.real_shift = wp.zeros(m.particle_capacity if self.shifting else 1, dtype=s.vec3, device=dev)
-        self.stages = [
-            Stage("ghosts", self._ghosts_two_set),
-            Stage("neighbours", self._neighbours_two_set),
-            Stage("corrections", self._corrections),
-            Stage("taylor_half_step", self._half_step),
-            Stage("virtual_ghosts", self._virtual_ghosts),
-            Stage("taylor_full_step", self._full_step),
-            Stage("prescribed_values", self._prescribe),
-        ]
         self.real_motion = None
         """The real particles' velocity over the step [m/s] (``virtual_density = "real_motion"`` only)."""
-        if m.scene.simulation.virtual_density == "real_motion":
+        if self.config.virtual_density == "real_motion":
             self.real_motion = wp.zeros(m.particle_capacity, dtype=s.vec3, device=dev)
-            self.stages.insert(self.stage_names.index("taylor_full_step") + 1,
-                               Stage("virtual_continuity", self._virtual_continuity))
         if self.shifting:
             self.virtual_shift = wp.zeros(m.virtual_capacity, dtype=s.vec3, device=dev)
             self.shift_real_to_real = self._neighbour_list(same_set=True)
             self.shift_virtual_to_virtual = self._neighbour_list(same_set=True)
-            self.stages.insert(self.stage_names.index("taylor_full_step"), Stage("shifting", self._shifting))
-        alpha = m.scene.simulation.hourglass_control
+        alpha = self.config.hourglass_control
         if alpha > 0.0:
             self.hourglass = HourglassControl(m, alpha, self._neighbour_list(same_set=True), self.real_volume,
                                               self.energy.ledger)  # fmt: skip
-            self.stages.insert(self.stage_names.index("taylor_full_step") + 1, Stage(
-                "hourglass_control", lambda si, so, t, dt: self.hourglass.run(si, so, dt)))
         self.virtual_p = None
         if s.effects.pore_water:
             self.virtual_p = wp.zeros(m.virtual_capacity, dtype=wp.float64, device=dev)
             self.real_to_real = self._neighbour_list(same_set=True)
             self.projection = PressureProjection(m, self)
-            if not self.fixed_pore_pressure:
-                self.stages.append(Stage("pressure_projection", self._project))
 
     def _ghosts_two_set(self, si: State, so: State, t: float, dt: float) -> None:
         self.boundaries.set_time(t)
@@ -187,7 +236,7 @@ class Solver:
         half_step, *_ = taylor_kernels(m.spec)
         nl = self.virtual_to_real
         launch_rows(half_step, m.virtual_count,
-               [real(m.h), real(dt), m.spec.vec3(*m.gravity), real(m.scene.simulation.free_surface_threshold),
+               [real(m.h), real(dt), m.spec.vec3(*m.gravity), real(self.config.free_surface_threshold),
                 self._water_on_surface, nl.offsets, nl.indices, si.particle_q, self.real_volume, si.particle_v,
                 si.particle_stress, *self.real_fits.arrays(), si.virtual_q, si.virtual_density,
                 m.virtual_material, *self.virtual_fits.arrays(),
@@ -202,7 +251,7 @@ class Solver:
         new positions here, the real particles' in the full step (with their fields)."""
         m = self.model
         nv = m.virtual_count
-        if m.scene.simulation.virtual_points == "advected":
+        if self.config.virtual_points == "advected":
             self.shift_virtual_to_virtual.build(si.virtual_q, nv, si.virtual_q, m.virtual_total)
             compute_shift(m, self.shift_virtual_to_virtual, si.virtual_q, nv, m.virtual_mass, si.virtual_density,
                           self.virtual_rate, self.virtual_fits, self.virtual_shift, dt)  # fmt: skip
@@ -224,20 +273,20 @@ class Solver:
         real = m.spec.real
         _, full_step, *_ = taylor_kernels(m.spec)
         nl = self.real_to_virtual
-        own = int(m.scene.simulation.particle_velocity == "own")
+        own = int(self.config.particle_velocity == "own")
         launch_rows(full_step, m.particle_count,
-               [real(m.h), real(dt), m.spec.vec3(*m.gravity), real(m.scene.simulation.free_surface_threshold),
-                self._water_on_surface, real(m.scene.simulation.artificial_viscosity), nl.offsets, nl.indices,
+               [real(m.h), real(dt), m.spec.vec3(*m.gravity), real(self.config.free_surface_threshold),
+                self._water_on_surface, real(self.config.artificial_viscosity), nl.offsets, nl.indices,
                 si.virtual_q, m.virtual_mass, si.virtual_density, self.virtual_volume, self.virtual_v,
                 self.virtual_stress,
                 *self.virtual_fits.arrays()[:4], *self.real_fits.arrays(), si.particle_q, si.particle_v,
                 si.particle_stress, si.particle_density, m.particle_material, m.material_lambda, m.material_shear,
                 m.material_wave_speed, so.particle_q, so.particle_v, so.particle_stress, so.particle_density,
                 self.virtual_p, self._water_density, si.particle_plastic_strain, m.material_plasticity,
-                so.particle_plastic_strain, int(self.shifting), real(m.scene.simulation.particle_shifting),
+                so.particle_plastic_strain, int(self.shifting), real(self.config.particle_shifting),
                 self.real_shift,
-                own, real(m.scene.simulation.stress_filter), real(self.velocity_filter),
-                int(not m.scene.simulation.large_deformation), real(m.scene.simulation.dx), self._surface_weight,
+                own, real(self.config.stress_filter), real(self.config.velocity_filter),
+                int(not self.config.large_deformation), real(self.config.dx), self._surface_weight,
                 self._surface_water, m.particle_mass, self.energy.ledger], m.device)  # fmt: skip
 
     def _virtual_continuity(self, si: State, so: State, t: float, dt: float) -> None:
@@ -262,7 +311,7 @@ class Solver:
     def _surface_weight(self):
         """1 to take the weight of the soil above a surface band's point off its traction; 0 with large
         deformation, whose flows it destabilised (docs/method.md, *The weight of the soil*)."""
-        return self.model.spec.real(0.0 if self.model.scene.simulation.large_deformation else 1.0)
+        return self.model.spec.real(0.0 if self.config.large_deformation else 1.0)
 
     @functools.cached_property
     def _surface_water(self) -> SurfaceWater:
@@ -340,12 +389,6 @@ class Solver:
         self.rate_v = wp.zeros(n, dtype=s.vec3, device=dev)
         self.rate_stress = wp.zeros(n, dtype=s.mat33, device=dev)
         self.rate_density = wp.zeros(n, dtype=s.real, device=dev)
-        self.stages = [
-            Stage("ghosts", self._ghosts_collocated),
-            Stage("neighbours", self._neighbours_collocated),
-            Stage("runge_kutta", self._runge_kutta),
-            Stage("prescribed_values", self._prescribe),
-        ]
 
     def _ghosts_collocated(self, si: State, so: State, t: float, dt: float) -> None:
         self.boundaries.set_time(t)
@@ -361,7 +404,7 @@ class Solver:
 
     def _runge_kutta(self, si: State, so: State, t: float, dt: float) -> None:
         m = self.model
-        real, sim = m.spec.real, m.scene.simulation
+        real, sim = m.spec.real, self.config
         rates, accumulate = collocated_kernels(m.spec)
         a_coef, b_coef = RK_TABLEAU[m.spec.integrator]
         c_coef = (0.0, *a_coef)

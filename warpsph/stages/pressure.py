@@ -74,7 +74,7 @@ class PressureProjection:
         self.scale = laplacian_scale(m.spec.kernel, m.spec.dim, ratio)
         self.lattice_sum = lattice_morris_sum(m.spec.kernel, m.spec.dim, m.dx, ratio)
         impermeable_surface = settings.free_surface == "impermeable"
-        self.exterior_threshold = m.scene.simulation.free_surface_threshold if impermeable_surface else 0.0
+        self.exterior_threshold = solver.config.free_surface_threshold if impermeable_surface else 0.0
         """Correction eigenvalue below which a particle gains the exterior pairs (0: none do)."""
         self.water_on_surface = 1.0 if impermeable_surface else 0.0
         """Weight of the pore pressure in the surface band's weak traction term: 1 at an impermeable free
@@ -231,7 +231,7 @@ class PressureProjection:
         if self.settings.stabilisation > 0.0 or self.settings.interior_stabilisation > 0.0:
             launch_rows(self.k["mark_near_surface"], n,
                         [n, nl.offsets, nl.indices, m.particle_ghost_source, rf.smallest_eigenvalue,
-                         real(m.scene.simulation.free_surface_threshold), self.sealed_face, self.near_surface],
+                         real(self.solver.config.free_surface_threshold), self.sealed_face, self.near_surface],
                         dev)  # fmt: skip
             launch_rows(self.k["roughness"], n,
                    [*fit_args, self.near_surface, int(self.damps_everywhere), self.dirichlet, self.p_old,
