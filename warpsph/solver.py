@@ -15,12 +15,12 @@ from dataclasses import dataclass
 
 import warp as wp
 
-from warpsph.launching import launch, launch_rows
+from warpsph.launching import launch_rows
 from warpsph.builder import rigid_region_members
 from warpsph.model import Model, State
 from warpsph.sph.neighbours import NeighbourList, NeighbourScratch
 from warpsph.stages.boundaries import Boundaries
-from warpsph.stages.collocated import RK_TABLEAU, collocated_kernels
+from warpsph.stages.collocated import RungeKuttaStep
 from warpsph.stages.corrections import FitData, compute_fit_data, compute_volumes
 from warpsph.stages.damping import EQUILIBRIUM_VELOCITY_FILTER, LocalDamping
 from warpsph.stages.energy import EnergyLedger
@@ -32,7 +32,7 @@ from warpsph.stages.surface_water import SurfaceWater, levels, surface_water
 from warpsph.stages.shifting import apply_shift, compute_shift
 from warpsph.stages.virtual_points import VirtualRegenerator
 from warpsph.stages.pressure import PressureProjection
-from warpsph.stages.taylor import taylor_kernels
+from warpsph.stages.taylor import launch_full_step, launch_half_step, launch_real_motion, launch_virtual_continuity
 
 
 @dataclass(frozen=True, kw_only=True)
@@ -150,7 +150,7 @@ class Solver:
                 "local_damping": lambda si, so, t, dt: self.damping.run(si, so, dt)}  # fmt: skip
         if s.scheme != "two_set":
             runs.update(ghosts=self._ghosts_collocated, neighbours=self._neighbours_collocated,
-                        runge_kutta=self._runge_kutta)  # fmt: skip
+                        runge_kutta=self.runge_kutta.run)  # fmt: skip
         self.stages = [Stage(name, runs[name]) for name in stage_names(c)]
 
     def _neighbour_list(self, same_set: bool = False) -> NeighbourList:
@@ -231,20 +231,12 @@ class Solver:
                          m.particle_ghost_count)  # fmt: skip
 
     def _half_step(self, si: State, so: State, t: float, dt: float) -> None:
-        m = self.model
-        real = m.spec.real
-        half_step, *_ = taylor_kernels(m.spec)
-        nl = self.virtual_to_real
-        launch_rows(half_step, m.virtual_count,
-               [real(m.h), real(dt), m.spec.vec3(*m.gravity), real(self.config.free_surface_threshold),
-                self._water_on_surface, nl.offsets, nl.indices, si.particle_q, self.real_volume, si.particle_v,
-                si.particle_stress, *self.real_fits.arrays(), si.virtual_q, si.virtual_density,
-                m.virtual_material, *self.virtual_fits.arrays(),
-                m.material_lambda, m.material_shear, self.virtual_v, self.virtual_stress, so.virtual_q,
-                so.virtual_density, self._stress_pressure(si), self._water_density, self.virtual_p,
-                si.particle_plastic_strain, m.material_plasticity, self.virtual_rate,
-                real(0.0 if self.real_motion is not None else 1.0), self._surface_weight, self._surface_water],
-               m.device)  # fmt: skip
+        launch_half_step(self.model, self.config, self.virtual_to_real, si, so, dt, real_volume=self.real_volume,
+                         real_fits=self.real_fits, virtual_fits=self.virtual_fits, virtual_v=self.virtual_v,
+                         virtual_stress=self.virtual_stress, pressure=self._stress_pressure(si),
+                         water_density=self._water_density, virtual_p=self.virtual_p, virtual_rate=self.virtual_rate,
+                         integrated_density=self.real_motion is None, water_on_surface=self._water_on_surface,
+                         surface_weight=self._surface_weight, surface_water=self._surface_water)  # fmt: skip
 
     def _shifting(self, si: State, so: State, t: float, dt: float) -> None:
         """Shifts of both sets from the configuration at tⁿ: the virtual points' are applied to their
@@ -269,43 +261,22 @@ class Solver:
             self.projection.update_ghosts(si.virtual_q, self.virtual_p, homogeneous=False, virtual=True)
 
     def _full_step(self, si: State, so: State, t: float, dt: float) -> None:
-        m = self.model
-        real = m.spec.real
-        _, full_step, *_ = taylor_kernels(m.spec)
-        nl = self.real_to_virtual
-        own = int(self.config.particle_velocity == "own")
-        launch_rows(full_step, m.particle_count,
-               [real(m.h), real(dt), m.spec.vec3(*m.gravity), real(self.config.free_surface_threshold),
-                self._water_on_surface, real(self.config.artificial_viscosity), nl.offsets, nl.indices,
-                si.virtual_q, m.virtual_mass, si.virtual_density, self.virtual_volume, self.virtual_v,
-                self.virtual_stress,
-                *self.virtual_fits.arrays()[:4], *self.real_fits.arrays(), si.particle_q, si.particle_v,
-                si.particle_stress, si.particle_density, m.particle_material, m.material_lambda, m.material_shear,
-                m.material_wave_speed, so.particle_q, so.particle_v, so.particle_stress, so.particle_density,
-                self.virtual_p, self._water_density, si.particle_plastic_strain, m.material_plasticity,
-                so.particle_plastic_strain, int(self.shifting), real(self.config.particle_shifting),
-                self.real_shift,
-                own, real(self.config.stress_filter), real(self.config.velocity_filter),
-                int(not self.config.large_deformation), real(self.config.dx), self._surface_weight,
-                self._surface_water, m.particle_mass, self.energy.ledger], m.device)  # fmt: skip
+        launch_full_step(self.model, self.config, self.real_to_virtual, si, so, dt, virtual_volume=self.virtual_volume,
+                         virtual_v=self.virtual_v, virtual_stress=self.virtual_stress, virtual_fits=self.virtual_fits,
+                         real_fits=self.real_fits, virtual_p=self.virtual_p, water_density=self._water_density,
+                         real_shift=self.real_shift, water_on_surface=self._water_on_surface,
+                         surface_weight=self._surface_weight, surface_water=self._surface_water,
+                         ledger=self.energy.ledger)  # fmt: skip
 
     def _virtual_continuity(self, si: State, so: State, t: float, dt: float) -> None:
         """The virtual points' densities follow the motion of the real particles around them over the
         step (continuity with the rate of deformation of that motion; docs/method.md)."""
-        m = self.model
-        real = m.spec.real
-        *_, virtual_continuity, motion_over_step = taylor_kernels(m.spec)
-        launch(motion_over_step, m.particle_count, [0, real(dt), si.particle_q, so.particle_q, self.real_motion],
-               m.device)  # fmt: skip
+        launch_real_motion(self.model, si, so, dt, self.real_motion)
         # the motion's ghosts as velocities (the call also refreshes the ghosts of so's stress and density,
         # which the next step's ghost stage sets anew)
         self.boundaries.update_real_ghosts(si.particle_q, self.real_motion, so.particle_stress, so.particle_density,
                                            self._stress_pressure(si))  # fmt: skip
-        nl = self.virtual_to_real
-        launch_rows(virtual_continuity, m.virtual_count,
-               [real(m.h), real(dt), nl.offsets, nl.indices, si.particle_q, m.particle_mass, si.particle_density,
-                self.real_motion, si.virtual_q, *self.virtual_fits.arrays()[:4], so.virtual_density],
-               m.device)  # fmt: skip
+        launch_virtual_continuity(self.model, self.virtual_to_real, si, so, dt, self.real_motion, self.virtual_fits)
 
     @property
     def _surface_weight(self):
@@ -379,16 +350,9 @@ class Solver:
     def _init_collocated(self) -> None:
         m, s, dev = self.model, self.model.spec, self.model.device
         self.projection = None  # no pore water in the collocated scheme (the run loop asks)
-        n, ne = m.particle_count, m.particle_capacity
         self.neighbour_scratch = NeighbourScratch(s, m.extent, self.support, dev)
         self.real_to_real = self._neighbour_list(same_set=True)
-        self.surface_normal = wp.zeros(n, dtype=s.vec3, device=dev)
-        self.stage_v = wp.zeros(ne, dtype=s.vec3, device=dev)
-        self.stage_stress = wp.zeros(ne, dtype=s.mat33, device=dev)
-        self.stage_density = wp.zeros(ne, dtype=s.real, device=dev)
-        self.rate_v = wp.zeros(n, dtype=s.vec3, device=dev)
-        self.rate_stress = wp.zeros(n, dtype=s.mat33, device=dev)
-        self.rate_density = wp.zeros(n, dtype=s.real, device=dev)
+        self.runge_kutta = RungeKuttaStep(m, self.config, self.boundaries, self.real_to_real)
 
     def _ghosts_collocated(self, si: State, so: State, t: float, dt: float) -> None:
         self.boundaries.set_time(t)
@@ -401,37 +365,6 @@ class Solver:
     def _neighbours_collocated(self, si: State, so: State, t: float, dt: float) -> None:
         m = self.model
         self.real_to_real.build(si.particle_q, m.particle_count, si.particle_q, m.particle_total)
-
-    def _runge_kutta(self, si: State, so: State, t: float, dt: float) -> None:
-        m = self.model
-        real, sim = m.spec.real, self.config
-        rates, accumulate = collocated_kernels(m.spec)
-        a_coef, b_coef = RK_TABLEAU[m.spec.integrator]
-        c_coef = (0.0, *a_coef)
-        n, nl = m.particle_count, self.real_to_real
-        wp.copy(self.stage_v, si.particle_v)
-        wp.copy(self.stage_stress, si.particle_stress)
-        wp.copy(self.stage_density, si.particle_density)
-        for name in ("particle_q", "particle_v", "particle_stress", "particle_density"):
-            wp.copy(getattr(so, name), getattr(si, name), count=n)
-        for i, b in enumerate(b_coef):
-            if i > 0:
-                self.boundaries.set_time(t + c_coef[i] * dt)
-                self.boundaries.update_real_ghosts(si.particle_q, self.stage_v, self.stage_stress,
-                                                   self.stage_density)  # fmt: skip
-            launch_rows(rates, n,
-                   [real(m.h), real(sim.artificial_viscosity), m.spec.vec3(*m.gravity),
-                    real(sim.free_surface_threshold), nl.offsets, nl.indices, si.particle_q, self.stage_v,
-                    self.stage_stress, self.stage_density, m.particle_mass, m.particle_material,
-                    m.material_lambda, m.material_shear, m.material_wave_speed, self.rate_v, self.rate_stress,
-                    self.rate_density, self.surface_normal], m.device)  # fmt: skip
-            last = i == len(b_coef) - 1
-            a_next = 0.0 if last else a_coef[i]
-            launch(accumulate, n,
-                   [real(b * dt), real(a_next * dt), int(last), si.particle_v, si.particle_stress,
-                    si.particle_density, self.rate_v, self.rate_stress, self.rate_density, self.surface_normal,
-                    self.stage_v, self.stage_stress, self.stage_density, so.particle_q, so.particle_v,
-                    so.particle_stress, so.particle_density], m.device)  # fmt: skip
 
     # -- driver -----------------------------------------------------------------------------------
     @property

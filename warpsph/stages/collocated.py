@@ -11,6 +11,7 @@ import functools
 
 import warp as wp
 
+from warpsph.launching import launch, launch_rows
 from warpsph.physics.elastic import elastic_functions
 from warpsph.sph.kernels import smoothing_functions
 from warpsph.sph.operators import operator_functions
@@ -141,3 +142,51 @@ def collocated_kernels(spec: Spec):
             density_stage[a] = density0[a] + a_dt * ddensity[a]
 
     return rates, accumulate
+
+
+class RungeKuttaStep:
+    """The collocated scheme's step: the rates of every Runge–Kutta stage at the particles, accumulated
+    into the new state, with the boundaries' ghosts set at each stage's time."""
+
+    def __init__(self, model, config, boundaries, neighbours):
+        m, s, dev = model, model.spec, model.device
+        self.model, self.config, self.boundaries, self.neighbours = model, config, boundaries, neighbours
+        n, ne = m.particle_count, m.particle_capacity
+        self.surface_normal = wp.zeros(n, dtype=s.vec3, device=dev)
+        self.stage_v = wp.zeros(ne, dtype=s.vec3, device=dev)
+        self.stage_stress = wp.zeros(ne, dtype=s.mat33, device=dev)
+        self.stage_density = wp.zeros(ne, dtype=s.real, device=dev)
+        self.rate_v = wp.zeros(n, dtype=s.vec3, device=dev)
+        self.rate_stress = wp.zeros(n, dtype=s.mat33, device=dev)
+        self.rate_density = wp.zeros(n, dtype=s.real, device=dev)
+
+    def run(self, si, so, t: float, dt: float) -> None:
+        m = self.model
+        real, sim = m.spec.real, self.config
+        rates, accumulate = collocated_kernels(m.spec)
+        a_coef, b_coef = RK_TABLEAU[m.spec.integrator]
+        c_coef = (0.0, *a_coef)
+        n, nl = m.particle_count, self.neighbours
+        wp.copy(self.stage_v, si.particle_v)
+        wp.copy(self.stage_stress, si.particle_stress)
+        wp.copy(self.stage_density, si.particle_density)
+        for name in ("particle_q", "particle_v", "particle_stress", "particle_density"):
+            wp.copy(getattr(so, name), getattr(si, name), count=n)
+        for i, b in enumerate(b_coef):
+            if i > 0:
+                self.boundaries.set_time(t + c_coef[i] * dt)
+                self.boundaries.update_real_ghosts(si.particle_q, self.stage_v, self.stage_stress,
+                                                   self.stage_density)  # fmt: skip
+            launch_rows(rates, n,
+                        [real(m.h), real(sim.artificial_viscosity), m.spec.vec3(*m.gravity),
+                         real(sim.free_surface_threshold), nl.offsets, nl.indices, si.particle_q, self.stage_v,
+                         self.stage_stress, self.stage_density, m.particle_mass, m.particle_material,
+                         m.material_lambda, m.material_shear, m.material_wave_speed, self.rate_v, self.rate_stress,
+                         self.rate_density, self.surface_normal], m.device)  # fmt: skip
+            last = i == len(b_coef) - 1
+            a_next = 0.0 if last else a_coef[i]
+            launch(accumulate, n,
+                   [real(b * dt), real(a_next * dt), int(last), si.particle_v, si.particle_stress,
+                    si.particle_density, self.rate_v, self.rate_stress, self.rate_density, self.surface_normal,
+                    self.stage_v, self.stage_stress, self.stage_density, so.particle_q, so.particle_v,
+                    so.particle_stress, so.particle_density], m.device)  # fmt: skip

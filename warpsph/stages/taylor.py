@@ -15,6 +15,7 @@ import functools
 
 import warp as wp
 
+from warpsph.launching import launch, launch_rows
 from warpsph.physics.elastic import elastic_functions, strain_energy_function
 from warpsph.physics.plasticity import material_struct, plastic_functions
 from warpsph.sph.kernels import smoothing_functions
@@ -505,3 +506,67 @@ def taylor_kernels(spec: Spec):
         motion[a] = (q_out[a] - q_in[a]) / dt
 
     return half_step, full_step, virtual_continuity, motion_over_step
+
+
+def launch_half_step(model, config, nl, si, so, dt: float, *, real_volume, real_fits, virtual_fits, virtual_v,
+                     virtual_stress, pressure, water_density, virtual_p, virtual_rate, integrated_density: bool,
+                     water_on_surface, surface_weight, surface_water: SurfaceWater) -> None:  # fmt: skip
+    """The half step at the virtual points over the neighbour list ``nl`` (virtual → real), from state
+    ``si`` into ``so``'s virtual points and ``virtual_v``, ``virtual_stress`` (and ``virtual_p``);
+    ``integrated_density``: the virtual densities by their own continuity (else the virtual continuity
+    stage sets them)."""
+    m, real = model, model.spec.real
+    half_step, *_ = taylor_kernels(m.spec)
+    launch_rows(half_step, m.virtual_count,
+                [real(m.h), real(dt), m.spec.vec3(*m.gravity), real(config.free_surface_threshold),
+                 water_on_surface, nl.offsets, nl.indices, si.particle_q, real_volume, si.particle_v,
+                 si.particle_stress, *real_fits.arrays(), si.virtual_q, si.virtual_density,
+                 m.virtual_material, *virtual_fits.arrays(),
+                 m.material_lambda, m.material_shear, virtual_v, virtual_stress, so.virtual_q,
+                 so.virtual_density, pressure, water_density, virtual_p,
+                 si.particle_plastic_strain, m.material_plasticity, virtual_rate,
+                 real(1.0 if integrated_density else 0.0), surface_weight, surface_water],
+                m.device)  # fmt: skip
+
+
+def launch_full_step(model, config, nl, si, so, dt: float, *, virtual_volume, virtual_v, virtual_stress,
+                     virtual_fits, real_fits, virtual_p, water_density, real_shift, water_on_surface, surface_weight,
+                     surface_water: SurfaceWater, ledger) -> None:  # fmt: skip
+    """The full step at the real particles over the neighbour list ``nl`` (real → virtual), from state
+    ``si`` and the virtual points' half-step values into ``so``, booking its energy in ``ledger``."""
+    m, real = model, model.spec.real
+    _, full_step, *_ = taylor_kernels(m.spec)
+    own = int(config.particle_velocity == "own")
+    launch_rows(full_step, m.particle_count,
+                [real(m.h), real(dt), m.spec.vec3(*m.gravity), real(config.free_surface_threshold),
+                 water_on_surface, real(config.artificial_viscosity), nl.offsets, nl.indices,
+                 si.virtual_q, m.virtual_mass, si.virtual_density, virtual_volume, virtual_v,
+                 virtual_stress,
+                 *virtual_fits.arrays()[:4], *real_fits.arrays(), si.particle_q, si.particle_v,
+                 si.particle_stress, si.particle_density, m.particle_material, m.material_lambda, m.material_shear,
+                 m.material_wave_speed, so.particle_q, so.particle_v, so.particle_stress, so.particle_density,
+                 virtual_p, water_density, si.particle_plastic_strain, m.material_plasticity,
+                 so.particle_plastic_strain, int(config.particle_shifting > 0.0), real(config.particle_shifting),
+                 real_shift,
+                 own, real(config.stress_filter), real(config.velocity_filter),
+                 int(not config.large_deformation), real(config.dx), surface_weight,
+                 surface_water, m.particle_mass, ledger], m.device)  # fmt: skip
+
+
+def launch_real_motion(model, si, so, dt: float, real_motion) -> None:
+    """The real particles' velocity over the step, (x^{n+1} − xⁿ)/Δt, into ``real_motion``."""
+    m = model
+    *_, motion_over_step = taylor_kernels(m.spec)
+    launch(motion_over_step, m.particle_count, [0, m.spec.real(dt), si.particle_q, so.particle_q, real_motion],
+           m.device)  # fmt: skip
+
+
+def launch_virtual_continuity(model, nl, si, so, dt: float, real_motion, virtual_fits) -> None:
+    """The virtual points' densities by continuity with the rate of deformation of ``real_motion`` over
+    the neighbour list ``nl`` (virtual → real), into ``so``."""
+    m, real = model, model.spec.real
+    *_, virtual_continuity, _ = taylor_kernels(m.spec)
+    launch_rows(virtual_continuity, m.virtual_count,
+                [real(m.h), real(dt), nl.offsets, nl.indices, si.particle_q, m.particle_mass, si.particle_density,
+                 real_motion, si.virtual_q, *virtual_fits.arrays()[:4], so.virtual_density],
+                m.device)  # fmt: skip
