@@ -21,10 +21,11 @@ from decimal import Decimal
 
 import numpy as np
 
-from warpsph.errors import SceneError, SceneWarning
+from warpsph.errors import SceneError
 from warpsph.lattice import has_lattice_point, lattice_span, polygon_area, used_axes
 from warpsph.physics.retention import RETENTION
 from warpsph.phases import SWITCHED, change_target, phase_label, phase_scene
+from warpsph.scene_plausible import warn_implausible
 from warpsph.scene_sections import (AXES, IMPLICIT_PHASE_KINDS, PHASE_KINDS, Body, Boundary, Drainage, Effects, Load,
                                     Material, Output, Phase, PressureSolver, Probe, Region, Reservoir, Simulation,
                                     TimeFunction)  # fmt: skip
@@ -391,7 +392,7 @@ def _check_materials(materials: dict, effects: Effects) -> None:
         if material.k0 is not None:
             check_range(f"{key}.k0", material.k0, NON_NEGATIVE)
         _check_retention(material, key, effects)
-        _warn_implausible(material, key)
+        warn_implausible(material, key)
     _check_one_yield_function(materials)
 
 
@@ -400,37 +401,6 @@ MAX_COURANT = {("two_set", "rk2"): (1.5, 1.7), ("two_set", "rk4"): (1.5, 1.7),
 """Per scheme and integrator: (the largest Courant number accepted, the smallest at which the wave
 column's energy was measured to grow); the first is below the step's stability limit, the second beyond
 it (docs/accuracy.md, *Stability limit*)."""
-PLAUSIBLE_DENSITY = (500.0, 5000.0)
-"""kg/m³: soils, rocks and their saturated mixtures lie between."""
-PLAUSIBLE_MODULUS, PLAUSIBLE_COHESION = 1e5, 100.0
-"""Pa: below these a value is likely in kPa (Young's modulus) or kPa (cohesion)."""
-RADIAN_LIKE_ANGLE = math.pi / 2
-"""Degrees: a friction or dilatancy angle above zero and at most this is likely in radians."""
-
-
-def _warn_implausible(material: Material, key: str) -> None:
-    """One :class:`SceneWarning` per value unlikely for soil and rock, with the unit it probably
-    lacks; the scene still runs."""
-    lo, hi = PLAUSIBLE_DENSITY
-    if not lo <= material.density <= hi:
-        _warn(f"{key}.density = {show(material.density)} kg/m³ is outside {lo:g}–{hi:g} kg/m³ of soil and rock "
-              "(kg/m³, not t/m³ or g/cm³)")  # fmt: skip
-    if material.youngs_modulus < PLAUSIBLE_MODULUS:
-        _warn(f"{key}.youngs_modulus = {show(material.youngs_modulus)} Pa is below {PLAUSIBLE_MODULUS:g} Pa, softer "
-              "than any soil (Pa, not kPa or MPa)")  # fmt: skip
-    if material.model == "viscoplastic" and 0.0 < material.cohesion < PLAUSIBLE_COHESION:
-        _warn(f"{key}.cohesion = {show(material.cohesion)} Pa is below {PLAUSIBLE_COHESION:g} Pa (Pa, not kPa)")
-    for name in ("friction_angle", "dilatancy_angle"):
-        angle = getattr(material, name) if material.model == "viscoplastic" else 0.0
-        if 0.0 < angle <= RADIAN_LIKE_ANGLE:
-            _warn(f"{key}.{name} = {show(angle)}° is at most {RADIAN_LIKE_ANGLE:.3g}°, like an angle in radians "
-                  f"({math.degrees(angle):.3g}° if it is one): angles are in degrees")  # fmt: skip
-
-
-def _warn(message: str) -> None:
-    import warnings
-
-    warnings.warn(message, SceneWarning, stacklevel=2)
 
 
 def _check_viscoplastic(material: Material, key: str, effects: Effects) -> None:
