@@ -13,16 +13,11 @@ from __future__ import annotations
 import importlib.util
 import json
 import math
-import re
-import os
-import shutil
 import signal
 import threading
-import platform
 import time
 from dataclasses import asdict, dataclass, field
 from pathlib import Path
-from typing import NamedTuple
 
 import numpy as np
 import warp as wp
@@ -30,7 +25,6 @@ import warp as wp
 from warpsph.builder import build
 from warpsph.environment import check_device, default_device
 from warpsph.errors import InputError, OutputError, SimulationError
-from warpsph.fields import tensor_to_voigt
 from warpsph.io import ResultsWriter, UsdParticleCache, load_checkpoint, save_checkpoint
 from warpsph.io.xdmf import XdmfIndex
 from warpsph.io.run_directory import CHECKPOINT, RECORD, RESULTS, RunDirectory, first_difference, scene_record
@@ -45,6 +39,7 @@ from warpsph.phases.k0 import K0Procedure
 from warpsph.phases.safety import SafetyAnalysis
 from warpsph.phases.staging import NOT_CONVERGED, STOPPED, UNSTABLE, PhaseRecord, default_phases, phase_scene
 from warpsph.probes import Probes
+from warpsph.run_output import FrameContent, frame_content, os_reason, room_for, run_record, write_record
 from warpsph.scene import IMPLICIT_PHASE_KINDS, Phase, Scene
 from warpsph.solver import Solver, warm_up
 from warpsph.stages.energy import EnergyGuard, balance_warnings, energy_balance
@@ -91,17 +86,6 @@ class RunSummary:
         return self.particles * self.steps / self.wall_seconds if self.wall_seconds > 0 else 0.0
 
 
-class FrameContent(NamedTuple):
-    """A frame's content: the host fields (:func:`host_fields`), the arrays written, and the energy
-    balance to write as series with it (a safety trial's, at its last state; else None)."""
-
-    fields: dict
-    frame: dict
-    balance: dict | None
-
-
-OUTPUT_RESERVE = 1 << 20
-"""Bytes a frame or checkpoint write leaves free on the disk beyond twice its arrays [B]."""
 GUARD_WINDOW = 2
 """Steps between two checks of the energy balance by the run guard (a divisor of ``CHECK_EVERY``): the
 window over which it measures the energy made, short enough to stop an unstable mode within a few
@@ -325,13 +309,7 @@ class Run:
         return f"the last checkpoint (step {self.checkpoint_step}) is kept"
 
     def _room_for(self, arrays: dict) -> None:
-        """Stop with :class:`OutputError` before a write that the disk has no room for: HDF5 cut off
-        by a full disk leaves its files and its own state broken (the process can crash on exit)."""
-        need = 2 * sum(np.asarray(a).nbytes for a in arrays.values()) + OUTPUT_RESERVE
-        free = shutil.disk_usage(self.out).free
-        if free < need:
-            raise OutputError(f"cannot write the run's output in {self.out}: {free / 1e6:.3g} MB left on its disk, "
-                              f"the next write needs {need / 1e6:.3g} MB; {self._kept}")  # fmt: skip
+        room_for(self.out, arrays, self._kept)
 
     # -- output -----------------------------------------------------------------------------------
     def _sample_probes(self, fields=None) -> None:
@@ -355,26 +333,8 @@ class Run:
 
     def frame(self) -> FrameContent:
         """What a frame of the current state holds: the host fields and the frame's arrays."""
-        fields = host_fields(self.model, self.state)
-        frame = {"position": fields["position"]}
-        if self.staged:
-            frame["id"] = self.model.particle_ids
-        wanted = self.phase_scene.output.fields
-        if "velocity" in wanted:
-            frame["velocity"] = fields["velocity"]
-        if "displacement" in wanted:
-            frame["displacement"] = fields["position"] - self.origin
-        if "stress" in wanted:
-            frame["stress"] = tensor_to_voigt(fields["stress"])
-        if "pore_pressure" in fields:
-            frame["pore_pressure"] = fields["pore_pressure"]
-        if "plastic_strain" in fields:
-            frame["plastic_strain"] = fields["plastic_strain"]
-        if "darcy_velocity" in wanted:
-            frame["darcy_velocity"] = self.solver.projection.darcy_velocity(self.state)
-        if self.flow is not None:
-            frame["saturation"] = self.flow.saturation_field()
-        return FrameContent(fields, frame, None)
+        return frame_content(self.model, self.state, self.origin, self.phase_scene.output.fields, self.staged,
+                             self.solver.projection, self.flow)  # fmt: skip
 
     def write_frame(self, content: FrameContent | None = None, **attrs) -> None:
         """Write a frame of the current state, or the ``content`` of one made elsewhere (a safety trial's
@@ -395,39 +355,8 @@ class Run:
         self.summary.frames += 1
 
     def _write_record(self, status: str, message: str = "") -> None:
-        record = {
-            "scene": self.scene.name,
-            "status": status,
-            "message": message,
-            "warpsph_version": __version__,
-            "warp_version": wp.config.version,
-            "python": platform.python_version(),
-            "device": str(self.model.device),
-            "precision": self.model.spec.precision,
-            "scheme": self.model.spec.scheme,
-            "integrator": self.model.spec.integrator,
-            "kernel": self.model.spec.kernel,
-            "dim": self.model.spec.dim,
-            "end_time": self.end_time,
-            "resumed": self.resumed,
-            **asdict(self.summary),
-            "particle_steps_per_second": self.summary.particle_steps_per_second,
-        }
-        projection = self.solver.projection
-        if projection is not None and projection.iterations:
-            its = np.asarray(projection.iterations)
-            record["pressure_solve"] = {
-                "solver": self.scene.pressure.solver, "tolerance": self.scene.pressure.tolerance,
-                "iterations_total": int(its.sum()), "iterations_mean": float(its.mean()),
-                "iterations_max": int(its.max()), "residual_max": float(np.max(projection.residuals)),
-                "missed_tolerance": projection.failures, "free_surface_warning": projection.surface_warning,
-            }  # fmt: skip
-        tmp = self.out / (RECORD + ".tmp")
-        try:
-            tmp.write_text(json.dumps(record, indent=2, default=str))
-            os.replace(tmp, self.out / RECORD)
-        finally:
-            tmp.unlink(missing_ok=True)
+        write_record(self.out / RECORD, run_record(self.scene, self.model, self.solver.projection, self.summary,
+                                                   status, message, self.end_time, self.resumed))  # fmt: skip
 
     # -- one step ---------------------------------------------------------------------------------
     def warm_up(self) -> None:
@@ -638,16 +567,6 @@ class Run:
             finally:
                 self.directory.release()
         return self.summary
-
-
-def os_reason(error: OSError) -> str:
-    """The short reason of an I/O error ("No space left on device"), not HDF5's page of detail."""
-    if error.strerror:
-        return error.strerror
-    found = re.search(r"error message = '([^']+)'", str(error))
-    if found:
-        return found.group(1)
-    return str(error).splitlines()[0][:200] if str(error) else type(error).__name__
 
 
 class _Interrupted(Exception):
