@@ -1,15 +1,5 @@
-"""Probes: scalar time series sampled from the particle fields on the host.
-
-Probes are Lagrangian: a "point" probe follows the material particle nearest its point at the
-start, a "region_mean" probe the particles that start inside its region, a "maximum" or
-"minimum" probe those (or all particles, without a region) to their extreme value. A "reaction"
-probe integrates the total traction σ·n (σ = σ′ − p I with pore water) over a boundary plane by the
-trapezoidal rule on the particles that start on it: each stands for its tributary area on the plane
-in the current configuration, spanned by half the vectors to its lattice neighbours on the plane
-(:func:`tributary_areas`; Δx^(dim−1) inside, half of it at an edge, where the body or the plane's
-particles end, a quarter at a corner; 1 in 1D); naming a "velocity" or "force" load, it writes the
-contact force of that rigid region (``stages/rigid.py``).
-Every value is multiplied by the probe's ``scale`` before it is written.
+"""Probes: scalar time series sampled from the particle fields on the host, following the material particles
+they start with (docs/scenes.md, *[[probes]]*; reaction probes: docs/method.md, *Boundaries*).
 """
 
 from __future__ import annotations

@@ -1,23 +1,6 @@
-"""Closed-form solutions and the error measures of docs/verification (shared/docs/verification.md).
-
-Step-loaded elastic column (top at y = H loaded at t = 0 by a compressive traction σ₀, front speed
-c): before the front reaches the base, −σ_yy/σ₀ = 1 for H − y < c t, 0 below. A step is smeared by
-any discretisation, so the front speed is measured from the loaded length d(t) = ∫(−σ_yy/σ₀) dy,
-which grows at exactly c, and the plateau as a window mean behind the front.
-
-Terzaghi consolidation (column of height H, drained top, impermeable base, step load σ₀ from the
-undrained state): p(ζ,t) = Σ (2p₀/M) sin(Mζ/H) exp(−M² T_v), M = π(2m+1)/2, T_v = c_v t/H², ζ the
-depth below the drained top; U(T_v) = 1 − Σ (2/M²) exp(−M² T_v).
-
-Infiltration toward the water table through a Gardner soil (Srivastava & Yeh 1991, homogeneous
-column): with K = K_s exp(−αψ) and θ − θ_r = (θ_s − θ_r) exp(−αψ), Richards' equation is linear in
-K* = K/K_s, c ∂K*/∂t = ∂²K*/∂z² + α ∂K*/∂z with c = α(θ_s − θ_r)/K_s, z the height above the water
-table (K* = 1 there) and the flux K_s (K*_z/α + K*) = q at the surface z = L. From the steady profile
-of the rate q_A, K*_A = q_A/K_s + (1 − q_A/K_s) e^(−αz), the rate turns to q_B at t = 0: K* is the
-steady profile of q_B plus e^(−αz/2) Σ a_k sin(λ_k z) exp(−(λ_k² + α²/4) t/c), tan(λ_k L) = −2λ_k/α.
-
-:func:`run_sampled` steps a scene in memory and samples it at chosen steps, timing the stepping
-apart from compilation and sampling; the accuracy studies (:mod:`warpsph.study`) measure with it.
+"""Closed-form solutions (step wave, Terzaghi consolidation, Gardner infiltration) and the error measures that
+the accuracy studies and the tests share, and :func:`run_sampled`, which steps a scene in memory and times the
+steps apart from compilation and sampling (docs/accuracy.md, *Error measures*).
 """
 
 from __future__ import annotations
@@ -204,7 +187,9 @@ def _modes(terms: int) -> list[float]:
 
 
 def terzaghi_pressure(zeta, height: float, p0: float, tv: float, terms: int = 400):
-    """Excess pore pressure [Pa] at depths ``zeta`` [m] below the drained top, time factor ``tv``."""
+    """Excess pore pressure [Pa] at depths ``zeta`` [m] below the drained top, time factor ``tv``: Terzaghi's
+    p(ζ, t) = Σ (2p₀/M) sin(Mζ/H) exp(−M² T_v), M = π(2m + 1)/2, T_v = c_v t/H², for a column of height H
+    with a drained top and an impermeable base under a step load σ₀ from the undrained state."""
     return sum(2 * p0 / M * np.sin(M * np.asarray(zeta) / height) * math.exp(-M * M * tv) for M in _modes(terms))
 
 
@@ -222,8 +207,15 @@ def pressure_l2(pressure, zeta, height: float, p0: float, tv: float) -> float:
 def gardner_infiltration(z, t: float, length: float, alpha: float, storage: float, conductivity: float,
                          rate_before: float, rate: float, terms: int = 200) -> np.ndarray:
     """K/K_s [-] at heights ``z`` [m] above the water table, ``t`` [s] after the surface's infiltration
-    rate turned from ``rate_before`` to ``rate`` [m/s] (Srivastava & Yeh 1991, module docstring);
-    ``storage`` = θ_s − θ_r [-], α [1/m], K_s = ``conductivity`` [m/s]."""
+    rate turned from ``rate_before`` to ``rate`` [m/s]; ``storage`` = θ_s − θ_r [-], α [1/m], K_s =
+    ``conductivity`` [m/s].
+
+    Srivastava & Yeh (1991), a homogeneous Gardner column: with K = K_s exp(−αψ) and θ − θ_r = (θ_s − θ_r)
+    exp(−αψ), Richards' equation is linear in K* = K/K_s, c ∂K*/∂t = ∂²K*/∂z² + α ∂K*/∂z with
+    c = α(θ_s − θ_r)/K_s, z the height above the water table (K* = 1 there) and the flux K_s (K*_z/α + K*) = q
+    at the surface z = L. From the steady profile of the rate q_A, K*_A = q_A/K_s + (1 − q_A/K_s) e^(−αz),
+    the rate turns to q_B at t = 0: K* is the steady profile of q_B plus
+    e^(−αz/2) Σ a_k sin(λ_k z) exp(−(λ_k² + α²/4) t/c), tan(λ_k L) = −2λ_k/α."""
     z = np.asarray(z, dtype=float)
     c = alpha * storage / conductivity
 

@@ -1,17 +1,6 @@
-"""XDMF 3 index over a results file, so ParaView/VisIt can open ``results.xdmf`` directly.
-
-Only shapes and attributes are read (no particle data). :func:`write_xdmf` writes the whole file
-from the results file, atomically (a temporary file renamed over it); :class:`XdmfIndex` does that
-once and then appends each new frame at a constant cost: the frame's grid and the closing tags go in
-one write over the old closing tags, so a killed process leaves the old or the new file, whole.
-
-An (N,6) dataset (``stress``, Voigt order xx, yy, zz, yz, xz, xy) is not written as an XDMF
-``Tensor6``: the readers disagree on that type's component order (VTK's Xdmf2 reader, ParaView's
-"XDMF Reader", expands it as xx, xy, xz, yy, yz, zz; the Xdmf3 readers pass the six numbers through
-and ParaView labels them XX, YY, ZZ, XY, YZ, XZ), so every order is wrong in one of them. Instead
-each component is its own Scalar attribute, ``stress_xx`` ... ``stress_xy``, whose HyperSlab
-DataItem selects one column of the stored dataset (no data is copied). docs/output.md lists what
-each reader shows; tests/test_xdmf_readers.py checks it with VTK's reader.
+"""XDMF 3 index over a results file, so ParaView/VisIt can open ``results.xdmf`` directly; an (N,6) dataset
+becomes one Scalar attribute per component, since the readers disagree on ``Tensor6``'s order
+(docs/output.md, *results.xdmf in ParaView*).
 """
 
 from __future__ import annotations
@@ -113,7 +102,8 @@ def _paths(h5_path, xdmf_path) -> tuple[Path, Path, str]:
 
 
 def write_xdmf(h5_path, xdmf_path=None) -> Path:
-    """Write the XDMF file for ``h5_path`` (default: same stem, ``.xdmf``) and return its path.
+    """Write the XDMF file for ``h5_path`` (default: same stem, ``.xdmf``) and return its path: whole, to a
+    temporary file renamed over the old one, reading only shapes and attributes (no particle data).
 
     One Polyvertex grid per complete frame in a temporal collection; geometry from ``position``, one
     attribute per other dataset with shape (N,), (N,3) or (N,9) and a numeric dtype, and one
@@ -141,8 +131,9 @@ def write_xdmf(h5_path, xdmf_path=None) -> Path:
 
 class XdmfIndex:
     """The XDMF file of a results file being written: :func:`write_xdmf` at creation (the frames
-    already there, e.g. of a resumed run), then :meth:`append` per new frame at a constant cost
-    (see module docstring)."""
+    already there, e.g. of a resumed run), then :meth:`append` per new frame at a constant cost: the
+    frame's grid and the closing tags go in one write over the old closing tags, so a killed process
+    leaves the old or the new file, whole (docs/output.md, *Kill safety*)."""
 
     def __init__(self, h5_path, xdmf_path=None):
         self.h5_path, self.path, self._ref = _paths(h5_path, xdmf_path)

@@ -1,34 +1,6 @@
-"""Perzyna viscoplasticity at a material point: invariants, three yield surfaces, relaxation source.
-
-Conventions: tension positive, σ′ the effective stress [Pa] as a 3×3 tensor (plane strain keeps
-σ_zz). I₁ = tr σ, s = σ − (I₁/3) I, J₂ = ½ s:s, J₃ = det s, and the Lode angle ϑ ∈ [−30°, 30°]
-from sin 3ϑ = −(3√3/2) J₃ / J₂^{3/2}: ϑ = +30° in triaxial compression (σ₁ = σ₂ > σ₃) and −30° in
-triaxial extension.
-
-The three yield functions share one form, so one gradient formula serves them all:
-
-    F(σ, ε̄) = β I₁ + √(J₂ K(ϑ)² + a²) − k_c s_y(ε̄),    s_y = max(s_y0 + H ε̄, s_r)
-
-(linear hardening or softening down to the residual strength s_r; s_r = −∞ by default, no floor)
-
-- von Mises: β = 0, K = √3, a = 0, k_c = 1, s_y0 = σ_Y0, i.e. F = √(3J₂) − σ_Y(ε̄).
-- Drucker–Prager matched to Mohr–Coulomb in plane strain: β = α = tanφ/√(9+12tan²φ), K = 1,
-  a = 0, k_c = 3/√(9+12tan²φ), s_y0 = c, i.e. F = √J₂ + αI₁ − κ(ε̄).
-- Mohr–Coulomb rounded after Abbo & Sloan (1995): β = sinφ/3, k_c = cosφ, s_y0 = c,
-  K(ϑ) = cosϑ − sinφ sinϑ/√3 for |ϑ| ≤ ϑ_T and K = A − B sin3ϑ beyond (A, B match K and dK/dϑ at
-  ±ϑ_T; dK/dϑ = 0 at ±30°, so the corners are smooth), and the hyperbolic apex a = f c₀ cotφ sinφ.
-  With a = 0 and |ϑ| ≤ ϑ_T it is exactly (σ₁ − σ₃)/2 + (σ₁ + σ₃)/2 sinφ − c cosφ.
-
-The plastic potential G has the same form with the dilatancy angle ψ in place of φ (no strength
-term). Its gradient, with q = √J₂, n = s/q, ξ = sin3ϑ, R = √(q²K² + a²) and t = qK/R, is
-
-    ∂G/∂σ = β I + t [ (K/2) n + (dK/dξ) M ],   M = q⁻¹ J₂ ∂ξ/∂σ = −(3√3/2) [n² − ⅔ I − (3/2) det(n) n]
-
-which stays bounded as J₂ → 0: below ``J2_FLOOR`` the direction n is taken as 0 (ϑ = 0).
-
-Perzyna: d^vp = γ ⟨F/F₀⟩^N ∂G/∂σ′ [1/s], ε̄ rate √(⅔ d^vp:d^vp), stress source −Dᵉ:d^vp. The source
-ODE (with the Jaumann spin term) is advanced by RK2/RK4 in sub-steps of size h with
-λ_vp h ≤ ``RELAXATION_STEP``, λ_vp = γ N ⟨F/F₀⟩^{N−1}/F₀ (|∂F:Dᵉ:∂G| + k_c |H| √⅔ |∂G|).
+"""Perzyna viscoplasticity at a material point: stress invariants, the von Mises, Drucker–Prager and rounded
+Mohr–Coulomb yield surfaces in the one form F = β I₁ + √(J₂ K(ϑ)² + a²) − k_c s_y(ε̄), their gradient, and
+the sub-stepped relaxation source (docs/method.md, *Viscoplasticity*).
 """
 
 import functools

@@ -1,16 +1,6 @@
-"""Corrected SPH operators as Warp functions (no kernels, no arrays of their own).
-
-The one operator used everywhere is a *linear fit* of a field carried by a source set at a query
-point x (finite-particle form of method.md §5). With r = x_b − x and g_b = ∇_x W(x − x_b), the
-Taylor expansion f_b = f + ∇f·r, weighted by V_b W and V_b g_b and summed, gives
-
-    [ w0   wr^T ] [ f  ]   [ Σ V_b W f_b ]        w0 = Σ V W,  wr = Σ V W r,
-    [ g0   M    ] [ ∇f ] = [ Σ V_b g f_b ]        g0 = Σ V g,  M  = Σ V g ⊗ r.
-
-Eliminating ∇f: f = Σ V_b ψ_b f_b and ∇f = Σ V_b φ_b f_b − e f, with
-ψ_b = (W − c·g_b)/(w0 − c·g0), φ_b = M⁻¹ g_b, c = M⁻ᵀ wr, e = M⁻¹ g0. Both are exact for linear
-fields; where M is singular (too few neighbours) the fit falls back to Shepard interpolation and an
-uncorrected gradient. ``fit_operator`` returns (c, inv_den, Minv, e, M, corrected).
+"""Corrected SPH operators as Warp functions (no kernels, no arrays of their own): the linear fit of a field
+carried by a source set, its value and gradient at a point, exact for linear fields, with Shepard
+interpolation where the fit is singular (docs/method.md, *Operators*).
 """
 
 

@@ -1,23 +1,5 @@
-"""Boundary planes: mirror ghosts of both particle sets and prescribed values on the planes.
-
-Each field has its own parity across a plane with outward normal n = s e_m (method.md §4,
-"Boundaries"):
-
-| plane     | velocity                    | stress                                         |
-|-----------|-----------------------------|------------------------------------------------|
-| fixed     | odd (v_g = −v)              | even (σ_g = σ)*                                |
-| velocity  | odd about v̄ (2v̄ − v)        | even*                                          |
-| slip      | normal odd, tangential even | mirrored, σ_g = RσR (shear odd, normal even*)  |
-| traction  | even                        | row m odd about the traction: σ_g,mk = 2 s t̄_k − σ_mk |
-
-Scalar state such as the equivalent plastic strain ε̄ is even across every plane (copied).
-
-*σ_nn continues with the gradient −(ρ − ρ_w) b·n that equilibrium at a wall implies (zero without
-body force): pure even parity put a kink into a geostatic stress and moved a column at rest.
-Particles that lie on a plane get the plane's prescribed values after every update. Fixed and slip
-planes stay where they are; traction and velocity planes are material faces and follow the mean
-position of the particles lying on them (mirroring across a plane the body has moved away from
-would put ghosts inside it). Rigid regions ("velocity" and "force" loads) are ``stages/rigid.py``'s.
+"""Boundary planes: mirror ghosts of both particle sets, each field with its plane's parity, and the
+prescribed values of the particles lying on the planes (docs/method.md, *Boundaries*).
 """
 
 

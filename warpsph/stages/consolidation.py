@@ -1,17 +1,5 @@
 """Consolidation: the coupled quasi-static response of soil and its pore water in implicit time steps,
 by the fixed-stress split (docs/method.md, *Consolidation*).
-
-Each step alternates the skeleton's equilibrium under held pore pressures with the groundwater
-flow's implicit step, whose water balance carries the skeleton's volumetric strain ε, until the
-pressure of two iterates agrees:
-
-    V [(C + S/Q + β)(pᵏ⁺¹ − pⁿ) − β(pᵏ − pⁿ) + S(εᵏ − εⁿ)]/Δt + Σ_b w_ab (p_a − p_b)ᵏ⁺¹ = 0,
-
-ε = −ln ρ (up to a constant) from the skeleton's own continuity, and β = S²/K_d with the drained
-modulus K_d = λ + 2G/d of the dimension d (E_oed in 1D, λ + G in plane strain, K in 3D): the split's
-storage, with which the iteration contracts for any time step when each equilibrium is exact (exact
-in one iteration in 1D), accelerated by Aitken's relaxation. In 2D the damped equilibrium's own
-floor stalls it (docs/method.md, *Known limits*).
 """
 
 from __future__ import annotations

@@ -1,17 +1,5 @@
-"""Local (non-viscous) damping of equilibrium phases, and the unbalanced force it drives to zero.
-
-After the step has computed every particle's new velocity, the acceleration of the step a = (vⁿ⁺¹ −
-vⁿ)/Δt is the unbalanced force per unit mass; each component is damped by a force against the
-particle's motion in proportion to it, a_d = a − α |a| sign(vⁿ) (Cundall's local damping, as FLAC
-uses it: no frequency to tune, off outside equilibrium phases; docs/scenes.md, *Phases*). The same
-pass sums Σ m‖a‖ and the kinetic energy ½ Σ m v² of the owned particles, and enters the kinetic energy
-the damping removed in the energy ledger (:mod:`warpsph.stages.energy`). Particles whose velocity
-a plane or a rigid load prescribes are left as they are.
-
-Local damping acts on the accelerations the virtual points' stresses give; the real particles' odd-even
-velocity mode, which no virtual point sees, has no stiffness to damp against and, under gravity next to a
-free surface, grows (docs/method.md, *Known limits*). An equilibrium phase therefore also filters it out
-with the two-set scheme's velocity filter at ``EQUILIBRIUM_VELOCITY_FILTER`` (docs/scenes.md, *Phases*).
+"""Local (non-viscous) damping of equilibrium phases, and the unbalanced force it drives to zero
+(docs/method.md, *Phases*).
 """
 
 from __future__ import annotations

@@ -1,14 +1,6 @@
-"""Mirror-ghost layouts: which points are mirrored across which boundary planes.
-
-A layout lists, for every ghost, its source (an owned point) and the chain of up to three planes it
-is mirrored across, in plane order: a point within the band 2h(1 + GHOST_MARGIN) of a plane, on the
-body's side, gets a ghost beyond it, and ghosts of earlier planes are mirrored again by later ones,
-so corners get ghosts of ghosts. Layouts are planned on the host. The builder plans once from the
-initial positions. With ``simulation.large_deformation`` a :class:`GhostLayout` re-plans both sets
-from the current positions and plane positions whenever a point has moved farther than half the
-margin 2h·GHOST_MARGIN since the last plan (a Verlet skin: the planes that follow their particles
-move at most as far, so until then every point within 2h of a plane still has its ghost). Ghost
-slots are allocated up to a capacity at build; only the first ``*_ghost_count`` are live.
+"""Mirror-ghost layouts: which points are mirrored across which boundary planes, planned on the host at
+build and, with ``simulation.large_deformation``, re-planned as the points move, and particles joining the
+walls they reach (docs/method.md, *Large deformation*).
 """
 
 

@@ -1,12 +1,5 @@
 """Groundwater flow through the fixed skeleton: the flow phase's implicit steps (docs/method.md,
 *Groundwater flow*).
-
-Each step is backward Euler on the water balance, ∂(nS)/∂t + (S/Q) ∂p/∂t = ∇·(k k_r ∇p_excess),
-iterated to convergence by modified Picard (Celia's mass-conservative form) with the real–real
-Morris Laplacian of the projection; the steady state drops the storage. Drained planes keep their
-ghost parities; free-surface particles inside a reservoir below its level take its pressure, and
-every other free-surface particle is a seepage face: held at atmospheric pressure while water
-leaves through it, released where water would enter.
 """
 
 from __future__ import annotations

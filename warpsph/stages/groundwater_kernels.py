@@ -1,12 +1,5 @@
 """Warp kernels of groundwater flow through the fixed skeleton (flow phases), float64 throughout;
 :mod:`warpsph.stages.groundwater` drives them (docs/method.md, *Groundwater flow*).
-
-Kernels: ``retention_fields`` (S, n dS/dp and k_r at every particle), ``bishop_excess`` (the pore
-pressure a mechanical phase with fixed pore pressures carries in its total stress), ``assemble_flow`` (the rows
-of one modified-Picard iteration of backward Euler on the real–real list), ``residual`` and
-``add_increment`` (the iteration solves for its increment) and ``flow_balance`` (each row's value
-with its own condition released, the discharge into each boundary and the water stored per unit
-time).
 """
 
 import functools

@@ -1,19 +1,6 @@
-"""Jacobi-preconditioned CG and weighted Jacobi for the pressure system A x = b (float64).
-
-A is stored by rows as the projection assembles it: ``diag[a]`` and, for k in
-[offsets[a], offsets[a+1]), A[a, column[k]] = −weight[k]; so (A x)_a = diag_a x_a − Σ weight x[column].
-
-Two implementations of each method, chosen by the device:
-
-- **Blocked (CPU).** Item i of a :func:`~warpsph.launching.launch_rows` launch owns rows
-  [i B, (i+1) B), B = SOLVE_BLOCK, writes their vectors and its own partial sums; the host adds the
-  partials in block order, so the solve is bit-identical for any thread count. Three launches and
-  two host reads per CG iteration.
-- **Device-resident (GPU).** One thread per row; dot products are summed per thread block
-  (``wp.tile_sum``) and added atomically into a table of per-iteration scalars on the device,
-  from which the next kernels read α and β themselves. The host reads the table only to test
-  convergence: every CHECK_EVERY iterations until the previous solve's count is near, then every
-  iteration, so the GPU is not stalled by a host read per iteration.
+"""Jacobi-preconditioned CG and weighted Jacobi for the pressure system A x = b (float64): blocked kernels on
+the CPU, bit-identical for any thread count, and device-resident ones on a GPU (docs/performance.md,
+*Pressure solve on CPU threads*).
 """
 
 from __future__ import annotations

@@ -1,26 +1,5 @@
-"""Pore-pressure projection of the fractional step (method.md §3), in float64 throughout.
-
-After the Taylor predictor has given v* (with the lagged pressure force), the pressure at tⁿ⁺¹ is
-found from the water mass balance (non-incremental form, solving for the excess pressure p directly
-so that drained values and ghost parities enter as they are):
-
-    p/(QΔt) − ∇·[(k + Δt/ρ) ∇p] = pⁿ/(QΔt) − ∇·v* − ∇·[(Δt/ρ) ∇pⁿ] − ρ_w b·v*/Q
-
-then v = v* − (Δt/ρ) ∇(p − pⁿ). ∇·v* and ∇(p − pⁿ) follow the same real → virtual → real path as
-the effective stress (linear fits of :mod:`warpsph.sph.operators`); the Laplacian is the symmetric
-Morris form on real–real pairs, V_a V_b κ_ab (−x_ab·∇W_ab)/(r² + η²), η = 0.1h, with
-κ_ab = 4 k_a k_b/(k_a + k_b) + Δt/ρ_a + Δt/ρ_b (twice the harmonic mean of k), scaled by a
-constant that makes it exact for quadratics on the initial lattice (the plain form is biased there),
-so the system is symmetric positive definite: Jacobi-preconditioned CG or weighted Jacobi solve it.
-Dirichlet rows (drained planes, drained free surface) are eliminated; ghosts enter with the
-pressure parity of their planes: even at impermeable planes, odd about the prescribed pressure at
-drained planes, and with the prescribed gradient ∂p/∂n = q̄/k at inflow planes. In the Δt/ρ part the
-increment is odd across impermeable traction planes, and an impermeable free surface gains the
-pairs its particles lack outside, with a zero increment (docs/method.md, Saturated soil). Within
-reach of a free surface the Δt/ρ part's right-hand side acts on pⁿ − θ(pⁿ − Πpⁿ), damping the pore
-pressure's odd-even part (``roughness``; docs/method.md, *Pore-pressure roughness damping*). A
-particle on a loaded impermeable face, whose own increment moves nothing, takes the fit of its
-neighbours' pressures after the solve (``extrapolate_to_sealed_faces``; *Loaded impermeable faces*).
+"""Pore-pressure projection of the fractional step, in float64 throughout: the pressure at tⁿ⁺¹ from the
+water mass balance, then the velocity correction (docs/method.md, *Saturated soil*).
 """
 
 import warnings

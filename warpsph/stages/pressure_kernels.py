@@ -1,12 +1,6 @@
-"""Warp kernels of the pore-pressure projection (float64 throughout) and the Morris Laplacian's
-lattice constants; :mod:`warpsph.stages.pressure` assembles, solves and corrects with them.
-
-Kernels: ``pressure_ghosts`` (ghost values with each plane's pressure parity), the real → virtual →
-real fits of the projection (``fit_vector_at_virtual``, ``fit_scalar_at_virtual``,
-``divergence_at_real``, ``gradient_at_real``), ``correct_velocity``, ``darcy``, ``mark_dirichlet``
-(drained rows), the roughness damping's ``mark_near_surface`` and ``roughness``, ``assemble`` (the
-matrix rows and right-hand side on the real–real list) and ``difference``; the function
-``ghost_affine`` (a ghost's pressure parity) is shared with :mod:`warpsph.stages.groundwater_kernels`.
+"""Warp kernels of the pore-pressure projection (float64 throughout) and the Morris Laplacian's lattice
+constants; :mod:`warpsph.stages.pressure` assembles, solves and corrects with them, and
+:mod:`warpsph.stages.groundwater_kernels` shares ``ghost_affine`` (docs/method.md, *Saturated soil*).
 """
 
 import functools

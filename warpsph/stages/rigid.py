@@ -1,20 +1,5 @@
 """Rigid regions: the particles and virtual points that start inside a "velocity" or "force" load's
-region move together as one rigid body in translation (a footing, a piston).
-
-After each update of the particle velocities (the Taylor step, and the pressure projection when there
-is one), the region's velocity is set:
-
-- "velocity" load: v_R = v̄ f(t), prescribed;
-- "force" load: v_R = (Σ m v_free + Δt F f(t)) / M, the momentum the free update gave the region's
-  particles plus the impulse of the applied force F [N/m in 2D, N in 3D], over the region's mass M
-  (the force is added once a step).
-
-The impulse the drive gives, Σ m (v_R − v_free), is summed over the step, and the contact force the
-region exerts on the rest of the body follows from the region's momentum balance,
-F_contact = M g + (drive impulse − M (v_R^{n+1} − v_R^n)) / Δt  [N/m or N];
-a "reaction" probe naming the load writes it. Virtual points of a region take v̄ f(t + Δt/2) for
-their half step ("velocity") or v_R at the step's start ("force"). Rotation is not followed
-(translation only).
+region move together as one rigid body in translation (a footing, a piston; docs/method.md, *Boundaries*).
 """
 
 import functools

@@ -1,23 +1,5 @@
-"""Particle shifting (large deformation, two-set scheme): both point sets kept near-uniform.
-
-In a large flow the points move with the flow, so a set that started on a lattice is stretched with
-the material: after the collapsing column's layer has thinned fourfold its particles stand in
-vertical strings a quarter Δx apart, the strings Δx·4 apart, and the other set's points are 2 Δx away
-from some particles (docs/method.md, "Large deformation"). Each set is therefore shifted a little
-down the gradient of its own concentration C = Σ_b V_b W(x − x_b) (Fickian shifting, Lind et al.
-2012), over its owned points and their mirror ghosts (a wall's images balance its points):
-
-    δx_a = −A h² (Δt ‖d‖_a) ∇C_a,   at most h Δt ‖d‖_a long,
-
-where Δt‖d‖ is the point's own strain increment of the step (‖d‖ = √(d:d) of its fitted rate of
-deformation), so points shift only as fast as the flow distorts them: not in a rigid motion, not at
-rest, and never farther than their neighbours moved relative to them in the step (measured on the
-collapse: with the largest rate of the neighbours instead of the own, and without the bound, a
-spurious rate at one point shifted a particle at 2 m/s, eight times its speed). In the free-surface
-band (smallest correction eigenvalue below the threshold) the part along the surface normal is
-removed, so the surface does not move. The real particles' fields are carried to the shifted place
-by their fitted gradients (v + (δx·∇)v, σ′ + (δx·∇)σ′, in the full step); virtual points carry only
-their position and density (their Φ is fitted afresh every step), so they just move.
+"""Particle shifting (large deformation, two-set scheme): both point sets kept near-uniform, each shifted
+down the gradient of its own concentration (docs/method.md, *Large deformation*).
 """
 
 import functools

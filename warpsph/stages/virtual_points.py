@@ -1,15 +1,5 @@
-"""Regenerating the virtual stress points from the real particles (large deformation).
-
-Virtual points move with their own half-step velocity. In a large flow that velocity and the real
-particles' drift apart, and so do the two sets (measured on a collapsing column: the farthest real
-particle 2 Δx from any virtual point after 0.5 s), which uncouples them. With
-``simulation.large_deformation`` the virtual set is therefore rebuilt whenever the ghosts are
-re-planned: the candidates are the centres (k + ½)Δx of the start's lattice cells around the owned
-real particles, and a centre becomes a virtual point where the Shepard sum S = Σ_b V_b W(x − x_b)
-of the owned real particles reaches :data:`INSIDE_SHEPARD` (inside the body). It takes the volume
-Δx^dim, the Shepard-interpolated density and displacement, hence an initial position (its material coordinate: load and
-drainage extents and velocity regions select it by that), and the material of the nearest real
-particle. Virtual points carry no other state: Φ^{n+½} is made afresh every step.
+"""Regenerating the virtual stress points from the real particles (large deformation; docs/method.md,
+*Large deformation*).
 """
 
 import functools

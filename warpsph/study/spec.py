@@ -1,26 +1,5 @@
-"""Study files: a base scene, the settings to sweep and the error metric (format: docs/accuracy.md).
-
-A study file is TOML::
-
-    [study]
-    scene = "../scenes/wave_column.toml"   # relative to the study file
-    metric = "wave_column"                 # warpsph.study.metrics.METRICS
-    error = "profile_l2"                   # optional: the error of the Pareto front (default: the metric's first)
-    cost = "wall_seconds"                  # optional: or "cpu_seconds", steadier on a busy machine
-
-    [fixed]                                # optional: scene keys set in every run
-    "simulation.artificial_viscosity" = 0.0
-
-    [axes]                                 # one sweep: every combination of these values
-    "simulation.dx" = [0.1, 0.05, 0.025]
-    "simulation.scheme" = ["two_set", "collocated"]
-
-    [[sweeps]]                             # optional further sweeps; the study runs their union
-    "simulation.dx" = [0.1, 0.05, 0.025]
-    "simulation.kernel" = ["wendland_c2"]
-
-Keys are the dotted key paths of docs/scenes.md (quoted, or as TOML dotted keys). A run is the
-base scene with one combination of overrides; runs that give the same scene are run once.
+"""Study files: a base scene, the settings to sweep and the error metric, read into the runs of a study
+(docs/accuracy.md, *Study files*).
 """
 
 from __future__ import annotations
