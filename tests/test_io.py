@@ -140,7 +140,8 @@ def test_usd_cache(tmp_path):
         fields = make_fields(step)
         positions.append(fields["position"])
         cache.write_frame(step, step * 1e-3, fields["position"],
-                          {name: fields[name] for name in ("velocity", "stress", "pore_pressure")})
+                          {name: fields[name] for name in ("velocity", "stress", "pore_pressure")},
+                          ids=np.arange(N) + 100 * k)  # fmt: skip
     cache.close()
 
     stage = Usd.Stage.Open(str(tmp_path / "particles.usdc"))
@@ -150,6 +151,7 @@ def test_usd_cache(tmp_path):
     points = UsdGeom.Points(prim)
     np.testing.assert_allclose(np.array(points.GetPointsAttr().Get(1)), positions[1], rtol=1e-6, atol=1e-7)
     assert prim.GetAttribute("warpsph:time").Get(1) == pytest.approx(0.01)
+    assert list(points.GetIdsAttr().Get(2)) == list(np.arange(N) + 200)  # each frame's particles by id
     assert list(points.GetWidthsAttr().Get()) == pytest.approx([0.01])
     primvars = UsdGeom.PrimvarsAPI(prim)
     for name in ("velocity", "pore_pressure", "stress_mean", "stress_von_mises"):

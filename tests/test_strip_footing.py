@@ -64,6 +64,8 @@ def test_usd_cache_has_the_pore_pressure_primvar(short_run):
     assert attr.IsValid()
     value = attr.Get(stage.GetEndTimeCode())
     assert stage.GetEndTimeCode() >= 1 and value is not None and len(value) == len(prim.GetAttribute("points").Get(0))
+    ids = prim.GetAttribute("ids").Get(stage.GetEndTimeCode())  # the particles' ids, as in results.h5
+    assert list(ids) == list(load_results(short_run / "results.h5").particle_ids)
 
 
 def test_load_raises_the_pore_pressure_under_the_footing(scene, short_run):

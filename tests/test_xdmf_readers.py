@@ -134,3 +134,23 @@ def test_index_appends_each_frame_alone(tmp_path, monkeypatch):
         whole = write_xdmf(path, tmp_path / "whole.xdmf").read_bytes()
         monkeypatch.setattr(xdmf, "_grid", lambda *args: built.append(1) or grid(*args))
         assert index.path.read_bytes() == whole
+
+
+def test_frames_that_share_a_time_are_all_listed(tmp_path, vtk_frames):
+    """A phase's last frame and the next phase's first share their time (a K0 frame and the first
+    lift's at t = 0, with other particles): the XDMF lists them at distinct increasing times, so a
+    reader shows every frame, each with its own particles; results.h5 keeps the shared times."""
+    path = tmp_path / "results.h5"
+    times = (0.0, 0.0, 1e-3, 2e-3, 2e-3, 3e-3)
+    counts = (N, N + 3, N + 3, N + 3, N + 5, N + 5)
+    with ResultsWriter(path, dim=3, scene_text="", particle_ids=np.arange(N + 5), warpsph_version="0") as writer:
+        index = XdmfIndex(path)
+        for k, (t, n) in enumerate(zip(times, counts)):
+            index.append(writer.write_frame(k, t, {"position": np.random.default_rng(k).random((n, 3)) + k}))
+    listed = [t for t, _, _ in vtk_frames(index.path)]
+    assert len(listed) == len(times) and np.all(np.diff(listed) > 0)
+    np.testing.assert_allclose(listed, times, atol=1e-8)
+    assert [len(points) for _, points, _ in vtk_frames(index.path)] == list(counts)
+    assert index.path.read_bytes() == write_xdmf(path, tmp_path / "whole.xdmf").read_bytes()  # the same listing
+    with h5py.File(path, "r") as f:
+        assert [float(f["frames"][k].attrs["time"]) for k in sorted(f["frames"])] == list(times)

@@ -351,7 +351,8 @@ class Run:
             self.xdmf.append(name)
         if self.usd is not None:
             self.usd.write_frame(self.step_index, self.time, frame["position"],
-                                 {k: v for k, v in frame.items() if k not in ("position", "id")})  # fmt: skip
+                                 {k: v for k, v in frame.items() if k not in ("position", "id")},
+                                 ids=self.model.particle_ids)  # fmt: skip
         self.summary.frames += 1
 
     def _write_record(self, status: str, message: str = "") -> None:

@@ -91,8 +91,10 @@ class UsdParticleCache:
                 out[name] = value
         return out
 
-    def write_frame(self, step: int, time: float, position: np.ndarray, primvars: dict[str, np.ndarray]) -> None:
-        """Write frame ``step`` at simulation ``time`` [s]: positions (N,3) [m] and primvars (see class)."""
+    def write_frame(self, step: int, time: float, position: np.ndarray, primvars: dict[str, np.ndarray],
+                    ids: np.ndarray | None = None) -> None:  # fmt: skip
+        """Write frame ``step`` at simulation ``time`` [s]: positions (N,3) [m], primvars (see class) and the
+        particles' ids (N,) (``UsdGeom.Points`` ``ids``: a particle keeps its id across frames and phases)."""
         Sdf, Vt = self._Sdf, self._Vt
         p = np.ascontiguousarray(position, dtype=np.float32)
         lo, hi = p.min(axis=0) - self.radius, p.max(axis=0) + self.radius
@@ -102,6 +104,8 @@ class UsdParticleCache:
             "warpsph:time": ("double", None, float(time)),
             "warpsph:step": ("int64", None, int(step)),
         }
+        if ids is not None:
+            values["ids"] = ("int64[]", None, Vt.Int64Array.FromNumpy(np.ascontiguousarray(ids, dtype=np.int64)))
         for name, value in self._primvars(primvars, p.shape[0]).items():
             value = np.ascontiguousarray(value, dtype=np.float32)
             array = Vt.Vec3fArray.FromNumpy(value) if value.ndim == 2 else Vt.FloatArray.FromNumpy(value)

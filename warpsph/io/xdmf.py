@@ -19,6 +19,17 @@ _ATTRIBUTE_TYPES = {(): "Scalar", (3,): "Vector", (9,): "Tensor"}
 VOIGT = ("xx", "yy", "zz", "yz", "xz", "xy")  # column order of every (N,6) dataset
 _NUMBER_TYPES = {"f": "Float", "i": "Int", "u": "UInt"}
 _INDENT = "  "
+TIME_NUDGE = 1e-9
+"""A frame whose time is not after the one listed before it (the last frame of a phase and the first
+of the next share their time) is listed this fraction of that time (of 1 s, before 1 s) later, so that
+readers list every frame, in order; results.h5 keeps the frames' own times."""
+
+
+def listed_time(time: float, before: float | None) -> float:
+    """The time a frame at ``time`` is listed at after a frame listed at ``before`` (None: the first)."""
+    if before is None or time > before:
+        return time
+    return before + TIME_NUDGE * max(abs(before), 1.0)
 
 
 def _data_item(ref: str, ds: h5py.Dataset, depth: int) -> str:
@@ -45,15 +56,15 @@ def _attribute(name: str, kind: str, item: str) -> str:
     return f'{pad}<Attribute Name={quoteattr(name)} AttributeType="{kind}" Center="Node">\n{item}{pad}</Attribute>\n'
 
 
-def _grid(frame: h5py.Group, vertex: h5py.Dataset | None, ref: str) -> str:
-    """XML of one frame's Polyvertex grid ("" when the frame has no ``position``)."""
+def _grid(frame: h5py.Group, vertex: h5py.Dataset | None, ref: str, time: float) -> str:
+    """XML of one frame's Polyvertex grid listed at ``time`` ("" when the frame has no ``position``)."""
     if "position" not in frame:
         return ""
     position = frame["position"]
     n = position.shape[0]
     pad = _INDENT * 3
     xml = [f'{pad}<Grid Name={quoteattr("frame_" + frame.name.rsplit("/", 1)[1])} GridType="Uniform">\n',
-           f'{pad}{_INDENT}<Time Value="{float(frame.attrs["time"])!r}" />\n',
+           f'{pad}{_INDENT}<Time Value="{float(time)!r}" />\n',
            f'{pad}{_INDENT}<Topology TopologyType="Polyvertex" NumberOfElements="{n}" NodesPerElement="1"']
     if vertex is not None and vertex.shape == (n,):
         xml.append(f'>\n{_data_item(ref, vertex, 5)}{pad}{_INDENT}</Topology>\n')
@@ -105,18 +116,25 @@ def write_xdmf(h5_path, xdmf_path=None) -> Path:
     """Write the XDMF file for ``h5_path`` (default: same stem, ``.xdmf``) and return its path: whole, to a
     temporary file renamed over the old one, reading only shapes and attributes (no particle data).
 
-    One Polyvertex grid per complete frame in a temporal collection; geometry from ``position``, one
-    attribute per other dataset with shape (N,), (N,3) or (N,9) and a numeric dtype, and one
-    Scalar attribute ``NAME_xx`` ... ``NAME_xy`` per component of an (N,6) dataset.
+    One Polyvertex grid per complete frame in a temporal collection, at distinct increasing times
+    (:func:`listed_time`); geometry from ``position``, one attribute per other dataset with shape (N,),
+    (N,3) or (N,9) and a numeric dtype, and one Scalar attribute ``NAME_xx`` ... ``NAME_xy`` per
+    component of an (N,6) dataset.
     """
+    return _write_xdmf(h5_path, xdmf_path)[0]
+
+
+def _write_xdmf(h5_path, xdmf_path=None) -> tuple[Path, float | None]:
+    """:func:`write_xdmf`, and the time its last frame is listed at (None: no frame)."""
     h5_path, xdmf_path, ref = _paths(h5_path, xdmf_path)
-    grids = []
+    grids, listed = [], None
     with _open(h5_path, "r") as f:
         vertex, frames = f.get("particles/vertex"), f.get("frames")
         step, time = np.empty((), np.int64), np.empty((), np.float64)
         for name in sorted(frames, key=int) if frames is not None else []:
             if _stamp(frames, name, step, time) is not None:
-                grids.append(_grid(frames[name], vertex, ref))
+                listed = listed_time(float(time), listed)
+                grids.append(_grid(frames[name], vertex, ref, listed))
     tmp = xdmf_path.with_name(f".{xdmf_path.name}.tmp")
     try:
         with open(tmp, "w", encoding="utf-8") as out:
@@ -126,7 +144,7 @@ def write_xdmf(h5_path, xdmf_path=None) -> Path:
         os.replace(tmp, xdmf_path)
     finally:
         tmp.unlink(missing_ok=True)
-    return xdmf_path
+    return xdmf_path, listed
 
 
 class XdmfIndex:
@@ -137,17 +155,20 @@ class XdmfIndex:
 
     def __init__(self, h5_path, xdmf_path=None):
         self.h5_path, self.path, self._ref = _paths(h5_path, xdmf_path)
-        write_xdmf(self.h5_path, self.path)
+        self._listed = _write_xdmf(self.h5_path, self.path)[1]
+        """The time the last frame is listed at."""
         self._end = self.path.stat().st_size - len(_TAIL.encode())
         """Byte offset of the closing tags, where the next frame's grid goes."""
 
     def append(self, frame: str) -> None:
         """Add frame ``frame`` (its group name under ``/frames``, complete) after the others."""
         if not hasattr(os, "pwrite"):  # no positioned write (Windows): the whole file again
-            write_xdmf(self.h5_path, self.path)
+            self._listed = _write_xdmf(self.h5_path, self.path)[1]
             return
         with _open(self.h5_path, "r") as f:
-            grid = _grid(f["frames"][frame], f.get("particles/vertex"), self._ref).encode()
+            group = f["frames"][frame]
+            self._listed = listed_time(float(group.attrs["time"]), self._listed)
+            grid = _grid(group, f.get("particles/vertex"), self._ref, self._listed).encode()
         fd = os.open(self.path, os.O_WRONLY)
         try:
             os.pwrite(fd, grid + _TAIL.encode(), self._end)  # one write: old file or new, whole
