@@ -344,3 +344,46 @@ def test_each_phase_reports_as_it_ends(tmp_path):
     assert [(name, outcome) for name, outcome, _ in reported] == [(p["name"], p["outcome"]) for p in phases]
     assert [step for *_, step in reported] == [p["last_step"] for p in phases]
     assert reported[1][2] < phases[2]["last_step"]
+
+
+def lifted_ground(probe_point) -> Scene:
+    """The layered ground built in two phases: K0 on the lower layer, then the upper layer placed on it
+    (an equilibrium phase), with a point probe at ``probe_point``."""
+    scene = layered_ground([Phase("initial", kind="k0", deactivate=["upper"]),
+                            Phase("lift", kind="equilibrium", activate=["upper"], tolerance=1e-2, max_steps=40)])
+    scene.probes.append(Probe("lift_top", kind="point", field="displacement_y", point=probe_point))
+    return scene.validate()
+
+
+def test_a_probe_samples_in_the_phases_whose_particles_it_reaches(tmp_path):
+    """A point probe on a layer that a later phase places is checked against that phase's particles, not
+    the first's: validate accepts it and reports each phase's particles, the run samples it from the phase
+    that places the layer on; a probe that no phase's particles reach is refused, naming its key."""
+    from warpsph.planning import plan
+
+    scene = lifted_ground((1.0, TOP - 0.5 * DX, 0.0))
+    lines = plan(scene, "cpu", timed=False).lines()
+    assert lines[0].startswith("176 particles (99 in initial, 176 in lift)")  # 11 columns of 9 rows, then 16
+    summary = warpsph.run_scene(scene, tmp_path, device="cpu")
+    results = warpsph.load_results(tmp_path / "results.h5")
+    times, _ = results.series("lift_top")
+    lift_start = summary.phases[0]["steps"]  # the K0 phase takes no step: the lift starts at t = 0
+    assert len(times) >= 2 and lift_start == 0
+    assert len(results.series("base_reaction")[0]) > len(times)  # the base reaction samples the K0 phase too
+    with pytest.raises(SceneError, match=r"probes\.lift_top\.point: the nearest particle in any phase is 1 m away"):
+        plan(lifted_ground((1.0, TOP + 1.0, 0.0)), "cpu", timed=False)
+    with pytest.raises(SceneError, match=r"probes\.lift_top\.point"):
+        warpsph.run_scene(lifted_ground((1.0, TOP + 1.0, 0.0)), tmp_path / "refused", device="cpu")
+
+
+def test_a_load_is_checked_in_the_phase_it_acts_in():
+    """validate builds every phase: a traction that a later phase activates on a face where no particle
+    lies is refused before the run, naming its key, not when the run reaches that phase."""
+    from warpsph.planning import plan
+
+    scene = lifted_ground((1.0, 1.0, 0.0))
+    scene.loads.append(Load("stray", kind="traction", axis="y", position=TOP + 1.0, side="max",
+                            traction=(0.0, -1e3, 0.0)))  # fmt: skip
+    scene.phases.append(Phase("load", kind="equilibrium", activate=["stray"], tolerance=1e-2, max_steps=40))
+    with pytest.raises(SceneError, match=r"loads\.stray\.position: no particle lies on this traction face"):
+        plan(scene.validate(), "cpu", timed=False)

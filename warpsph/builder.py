@@ -8,6 +8,7 @@ planes (one more ghost per point and plane, up to three planes), which the solve
 
 from __future__ import annotations
 
+import dataclasses
 import math
 
 import numpy as np
@@ -133,9 +134,12 @@ def _check_drained_planes(scene: Scene, planes, on_plane: np.ndarray, points: np
                              "body, on the lattice of spacing dx")  # fmt: skip
 
 
-def build(scene: Scene, device: str | None = None, precision: str | None = None) -> tuple[Model, State]:
+def build(scene: Scene, device: str | None = None, precision: str | None = None,
+          staged: bool = False) -> tuple[Model, State]:  # fmt: skip
     """Turn a validated ``scene`` into a Model and its initial State on ``device`` (default:
-    :func:`~warpsph.launching.default_device`)."""
+    :func:`~warpsph.launching.default_device`). ``staged``: ``scene`` is a phase's
+    (:func:`~warpsph.phases.phase_scene`): the model's scene leaves out the point and region probes that
+    reach none of its particles (they sample in the phases they reach) instead of refusing them."""
     init_warp()
     device = device or default_device()
     spec = Spec.from_scene(scene, precision)
@@ -193,7 +197,9 @@ def build(scene: Scene, device: str | None = None, precision: str | None = None)
                 on_plane[a, counts[a]] = p_idx
                 counts[a] += 1
     constrained = np.nonzero(counts)[0].astype(np.int32)
-    check_reach(scene, planes, on_plane, real_pts, real_body, body_points)
+    unreached = check_reach(scene, planes, on_plane, real_pts, real_body, body_points, staged)
+    if unreached:
+        scene = dataclasses.replace(scene, probes=[p for p in scene.probes if p.name not in unreached])
     if pore:
         _check_drained_planes(scene, planes, on_plane, real_pts)
 

@@ -38,6 +38,8 @@ class RunPlan:
     seconds_per_step: float
     output_bytes: float
     notes: list[str] = field(default_factory=list)
+    phase_particles: dict[str, int] = field(default_factory=dict)
+    """A staged scene's particles in each phase, by phase name."""
 
     @property
     def seconds(self) -> float:
@@ -49,7 +51,10 @@ class RunPlan:
                 "ms per step measured), " if self.seconds_per_step > 0 else "")  # fmt: skip
         why = (" (the equilibrium and safety phases counted at their step caps, max_steps, which they stop short "
                "of once they converge)" if self.capped else "")  # fmt: skip
-        out = [f"{self.particles} particles, {self.virtual_points} virtual points, dt = {self.time_step:.4g} s",
+        counts = ""
+        if len(set(self.phase_particles.values())) > 1:
+            counts = f" ({', '.join(f'{n} in {name}' for name, n in self.phase_particles.items())})"
+        out = [f"{self.particles} particles{counts}, {self.virtual_points} virtual points, dt = {self.time_step:.4g} s",
                f"{bound}{self.steps:,} steps, {self.frames} frames: {time}{bound or 'about '}"
                f"{_size(self.output_bytes)} of output{why}"]
         if self.seconds > LONG_RUN:
@@ -62,16 +67,28 @@ class RunPlan:
 
 
 def plan(scene: Scene, device: str | None = None, timed: bool = True) -> RunPlan:
-    """Build the scene's first mechanical phase (which checks what its particles show,
-    :mod:`warpsph.scene_reach`), time a few of its steps (unless not ``timed``) and count the rest."""
+    """Build every phase's model (which checks what its particles show, :mod:`warpsph.scene_reach`: the
+    loads, regions and probes of each phase against its bodies; a staged scene's point and region probes
+    against every phase's particles), time a few steps of the first mechanical phase (unless not
+    ``timed``) and count the rest."""
     from warpsph.builder import build
+    from warpsph.phases.carry import phase_particles
+    from warpsph.scene_reach import check_probes_reach
     from warpsph.solver import Solver, warm_up
     from warpsph.stages.guard import Guard
 
     phases = default_phases(scene)
+    counts = {}
+    if scene.phases:
+        points = phase_particles(scene)
+        check_probes_reach(scene, points)
+        counts = {phase.name: len(p) for phase, p in zip(phases, points)}
     mechanical = [i for i, p in enumerate(phases) if p.kind != "k0" and p.kind not in IMPLICIT_PHASE_KINDS]
+    for index in range(len(scene.phases)):  # each phase's checks (the first mechanical one's below)
+        if not mechanical or index != mechanical[0]:
+            build(phase_scene(scene, index), device=device, staged=True)
     first = phase_scene(scene, mechanical[0] if mechanical else 0) if scene.phases else scene
-    model, state = build(first, device=device)
+    model, state = build(first, device=device, staged=bool(scene.phases))
     dt = first.time_step
     seconds_per_step = 0.0
     if mechanical and timed:
@@ -95,8 +112,9 @@ def plan(scene: Scene, device: str | None = None, timed: bool = True) -> RunPlan
     itemsize = 8 if model.spec.precision == "float64" else 4
     per_frame = model.particle_count * sum(_COMPONENTS.get(f, 1) for f in set(fields)) * itemsize
     output = frames * per_frame * (2 if scene.output.usd else 1)
-    return RunPlan(model.particle_count, model.virtual_count, dt, steps, capped, frames, seconds_per_step,
-                   float(output), notes)  # fmt: skip
+    particles = max(counts.values(), default=model.particle_count)
+    return RunPlan(particles, model.virtual_count, dt, steps, capped, frames, seconds_per_step, float(output), notes,
+                   counts)  # fmt: skip
 
 
 def count_steps(scene: Scene) -> tuple[int, bool, int, list[str]]:

@@ -30,7 +30,7 @@ from warpsph.io.xdmf import XdmfIndex
 from warpsph.io.run_directory import CHECKPOINT, RECORD, RESULTS, RunDirectory, first_difference, scene_record
 from warpsph.model import host_fields
 from warpsph.phases.base import CHECK_EVERY, Calculation, Stopped
-from warpsph.phases.carry import ParticleIds, carry_state
+from warpsph.phases.carry import ParticleIds, carry_state, phase_particles
 from warpsph.phases.consolidation import Consolidation
 from warpsph.phases.dynamic import Dynamic
 from warpsph.phases.equilibrium import Equilibrium
@@ -41,6 +41,7 @@ from warpsph.phases.staging import NOT_CONVERGED, STOPPED, UNSTABLE, PhaseRecord
 from warpsph.probes import Probes
 from warpsph.run_output import FrameContent, frame_content, os_reason, room_for, run_record, write_record
 from warpsph.scene import IMPLICIT_PHASE_KINDS, Phase, Scene
+from warpsph.scene_reach import check_probes_reach
 from warpsph.solver import Solver, warm_up
 from warpsph.stages.energy import EnergyGuard, balance_warnings, energy_balance
 from warpsph.stages.guard import Guard
@@ -133,6 +134,8 @@ class Run:
         """``--end-time``: the run stops at this simulated time [s] (None: after the last phase)."""
         self.end_time = scene.simulation.end_time if end_time is None else end_time
         self.ids = ParticleIds(scene)
+        if self.staged:
+            check_probes_reach(scene, phase_particles(scene))
         self.records: list[PhaseRecord] = []
         self.step_index = 0
         self.phase_start_step, self.phase_start_time, self.dt = 0, 0.0, 0.0
@@ -184,7 +187,7 @@ class Run:
         self.phase_index = index
         phase = self.phases[index]
         phase_scene_ = phase_scene(self.scene, index) if self.staged else self.scene
-        self.model, self.state = build(phase_scene_, device=self.device, precision=self.precision)
+        self.model, self.state = build(phase_scene_, device=self.device, precision=self.precision, staged=self.staged)
         self.model.particle_ids = self.ids.of(self.model.particle_x0)
         origin = self.model.particle_x0.copy()
         if before is not None:

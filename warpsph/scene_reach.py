@@ -17,10 +17,13 @@ POINT_PROBE_REACH = 2.0
 
 
 def check_reach(scene: Scene, planes, on_plane: np.ndarray, points: np.ndarray, owner: np.ndarray,
-                body_points: list[np.ndarray]) -> None:  # fmt: skip
+                body_points: list[np.ndarray], staged: bool = False) -> list[str]:  # fmt: skip
     """``planes`` as ``builder._planes``, ``on_plane`` (N,3) the planes each particle lies on (−1 for
     none), ``points`` (N,3) the particles and ``owner`` their body; ``body_points`` every body's own
-    lattice points, before bodies filled earlier took theirs."""
+    lattice points, before bodies filled earlier took theirs. ``staged``: ``scene`` is a phase's, whose
+    point and region probes sample in the phases whose particles they reach (:func:`check_probes_reach`
+    checks each reaches some phase's): the names of those that reach none of these particles are
+    returned, not refused."""
     dx = scene.simulation.dx
     _check_bodies_inside_planes(scene, planes, points, owner)
     _check_overlaps(scene, body_points, dx)
@@ -39,19 +42,43 @@ def check_reach(scene: Scene, planes, on_plane: np.ndarray, points: np.ndarray, 
         if ld.region is not None and ld.kind in ("velocity", "force") and not np.any(ld.region.contains(points)):
             raise SceneError(f"loads.{ld.name}.region", "contains no particle: the rigid region moves nothing")
     plane_names = [plane[0] for plane in planes]
+    unreached = []
     for probe in scene.probes:
-        key = f"probes.{probe.name}"
-        if probe.kind == "point":
-            distance = np.sqrt(np.min(np.sum((points - np.asarray(probe.point, float)) ** 2, axis=1)))
-            if distance > POINT_PROBE_REACH * dx:
-                raise SceneError(f"{key}.point", f"the nearest particle is {distance:.4g} m away; a point probe "
-                                 f"follows the particle nearest its point, which must lie within "
-                                 f"{POINT_PROBE_REACH:g} dx")  # fmt: skip
-        elif probe.region is not None and not np.any(probe.region.contains(points, 1e-6 * dx)):
-            raise SceneError(f"{key}.region", "contains no particle")
+        problem = probe_problem(probe, points, dx)
+        if problem is not None and staged:
+            unreached.append(probe.name)
+        elif problem is not None:
+            raise SceneError(*problem[:2])
         elif probe.kind == "reaction" and probe.boundary in plane_names:
             if not np.any(on_plane == plane_names.index(probe.boundary)):
-                raise SceneError(f"{key}.boundary", f"no particle lies on plane {probe.boundary!r}")
+                raise SceneError(f"probes.{probe.name}.boundary", f"no particle lies on plane {probe.boundary!r}")
+    return unreached
+
+
+def probe_problem(probe, points: np.ndarray, dx: float, where: str = "") -> tuple[str, str, float] | None:
+    """(key, message, distance [m] to the nearest particle, inf for a region) of a point or region ``probe``
+    that reaches none of the particles at ``points`` (N,3) [m] (``where``: of which particles, for the
+    message), else None."""
+    key = f"probes.{probe.name}"
+    if probe.kind == "point":
+        distance = np.sqrt(np.min(np.sum((points - np.asarray(probe.point, float)) ** 2, axis=1)))
+        if distance > POINT_PROBE_REACH * dx:
+            return (f"{key}.point", f"the nearest particle{where} is {distance:.4g} m away; a point probe follows "
+                    f"the particle nearest its point, which must lie within {POINT_PROBE_REACH:g} dx",
+                    distance)  # fmt: skip
+    elif probe.region is not None and not np.any(probe.region.contains(points, 1e-6 * dx)):
+        return f"{key}.region", f"contains no particle{where}", np.inf
+    return None
+
+
+def check_probes_reach(scene: Scene, phase_points: list[np.ndarray]) -> None:
+    """Refuse a point or region probe of a staged ``scene`` that reaches no particle in any phase
+    (``phase_points``: each phase's particles), naming it as in the phase it comes nearest in."""
+    dx = scene.simulation.dx
+    for probe in scene.probes:
+        problems = [probe_problem(probe, points, dx, " in any phase") for points in phase_points if len(points)]
+        if problems and all(problems):
+            raise SceneError(*min(problems, key=lambda p: p[2])[:2])
 
 
 def _check_bodies_inside_planes(scene: Scene, planes, points: np.ndarray, owner: np.ndarray) -> None:

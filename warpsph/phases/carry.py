@@ -14,6 +14,7 @@ import numpy as np
 from warpsph.builder import merge_unique
 from warpsph.lattice import fill_body, fill_cells, lattice_codes
 from warpsph.model import Model, State
+from warpsph.phases.staging import phase_scene
 from warpsph.scene import Scene
 
 
@@ -45,6 +46,15 @@ class ParticleIds:
     def of_virtual(self, points: np.ndarray) -> np.ndarray:
         """Ids of a model's virtual points from their (M,3) initial positions."""
         return lattice_rows(self.virtual, points, self.dx)
+
+
+def phase_particles(scene: Scene) -> list[np.ndarray]:
+    """Each phase's particles (N_k,3) [m]: the lattice points of the bodies active in it."""
+    out = []
+    for index in range(len(scene.phases)):
+        sim = (staged := phase_scene(scene, index)).simulation
+        out.append(merge_unique([fill_body(b, sim.dx, sim.dim) for b in staged.bodies], sim.dx)[0])
+    return out
 
 
 def _virtual_ids(ids: ParticleIds, model: Model) -> np.ndarray:
