@@ -1,4 +1,4 @@
-"""Command line: ``warpsph run SCENE``, ``warpsph validate SCENE`` and ``warpsph study STUDY``.
+"""Command line: ``warpsph run SCENE``, ``warpsph validate SCENE``, ``warpsph export RUN`` and ``warpsph study STUDY``.
 
 Exit codes (every failure is one line on stderr, never a traceback): 0 success, 1 the run went
 unstable (its output up to then is kept), 2 a bad scene or bad arguments, 3 an equilibrium phase did
@@ -57,6 +57,10 @@ def _parser() -> argparse.ArgumentParser:
     val.add_argument("scene", type=Path, help="scene file (TOML)")
     val.add_argument("--device", default=default_device(), help="Warp device the estimate is measured on")
     val.add_argument("--no-estimate", action="store_true", help="build the particles but time no step")
+    exp = sub.add_parser("export", help="write a run's frames as VTK files (.vtu per frame, a .pvd collection)",
+                         formatter_class=HelpFormatter)  # fmt: skip
+    exp.add_argument("run_dir", type=Path, metavar="RUN", help="run directory (holding results.h5)")
+    exp.add_argument("--out", type=Path, default=None, help="directory for the files (default: RUN/vtu)")
     study_command.add_parser(sub, HelpFormatter)
     return p
 
@@ -180,6 +184,17 @@ def _run(args) -> int:
     return 0
 
 
+def _export(args) -> int:
+    from warpsph.io.export import export_vtu
+
+    try:
+        collection = export_vtu(args.run_dir, args.out)
+    except ImportError as e:
+        raise InputError(str(e)) from None
+    print(f"{collection}: the frames of {args.run_dir} as .vtu files (ParaView, pyvista.read, meshio.read)")
+    return 0
+
+
 def _show_warning(message, category, filename, lineno, file=None, line=None) -> None:
     """Warnings as one line each on stderr, ``warpsph: warning: ...``."""
     print(f"warpsph: warning: {one_line(str(message))}", file=sys.stderr)
@@ -191,7 +206,7 @@ def main(argv: list[str] | None = None) -> int:
     warnings.showwarning = _show_warning
     args = _parser().parse_args(argv)
     try:
-        return {"validate": _validate, "run": _run, "study": study_command.main}[args.command](args)
+        return {"validate": _validate, "run": _run, "export": _export, "study": study_command.main}[args.command](args)
     except DeviceError as e:
         return _fail(EXIT_DEVICE, str(e))
     except SceneError as e:
