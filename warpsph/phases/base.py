@@ -6,7 +6,6 @@ from __future__ import annotations
 from typing import TYPE_CHECKING
 
 if TYPE_CHECKING:
-    from warpsph.runner import Run
     from warpsph.scene import Phase
 
 CHECK_EVERY = 10
@@ -30,8 +29,9 @@ class Calculation:
     split = None
     """The fixed-stress split of a consolidation (:class:`~warpsph.stages.consolidation.FixedStressSplit`)."""
 
-    def __init__(self, run: Run, phase: Phase):
+    def __init__(self, run, phase: Phase):
         self.run, self.phase = run, phase
+        """The :class:`~warpsph.runner.Run` it steps, writes and checkpoints through, and its phase."""
 
     @property
     def pore_pressure(self) -> str:
