@@ -14,7 +14,7 @@ from dataclasses import dataclass
 import numpy as np
 import warp as wp
 
-from warpsph.physics.retention import RETENTION
+from warpsph.physics.retention import RETENTION, RetentionLaws, retention_laws
 from warpsph.scene import EXTENT_TOLERANCE, STANDARD_GRAVITY, Region, Scene
 from warpsph.stages.surface_water import SurfaceWater, surface_water
 
@@ -37,14 +37,8 @@ class PoreWaterModel:
     """(n_materials,) ρ_w [kg/m³]."""
     material_porosity: wp.array
     """(n_materials,) n [-]."""
-    material_retention: wp.array
-    """(n_materials,) int32 retention code (:data:`warpsph.physics.retention.RETENTION`)."""
-    material_retention_alpha: wp.array
-    """(n_materials,) α [1/m]."""
-    material_retention_n: wp.array
-    """(n_materials,) van Genuchten n [-]."""
-    material_residual_saturation: wp.array
-    """(n_materials,) S_r [-]."""
+    retention: RetentionLaws
+    """Each material's water retention law, α, n and S_r (:class:`~warpsph.physics.retention.RetentionLaws`)."""
     plane_drainage: wp.array
     """(P,) int32: 0 impermeable, 1 drained, 2 inflow."""
     plane_pressure: wp.array
@@ -114,10 +108,9 @@ def build_pore_water(scene: Scene, planes_drainage: list, top: float, vec3, grow
         material_inv_biot=arr([0.0 if math.isinf(m.biot_modulus) else 1.0 / m.biot_modulus for m in mats]),
         material_water_density=arr([m.water_density for m in mats]),
         material_porosity=arr([m.porosity for m in mats]),
-        material_retention=arr([RETENTION[m.retention] for m in mats], wp.int32),
-        material_retention_alpha=arr([m.retention_alpha for m in mats]),
-        material_retention_n=arr([m.retention_n for m in mats]),
-        material_residual_saturation=arr([m.residual_saturation for m in mats]),
+        retention=retention_laws(arr([RETENTION[m.retention] for m in mats], wp.int32),
+                                 arr([m.retention_alpha for m in mats]), arr([m.retention_n for m in mats]),
+                                 arr([m.residual_saturation for m in mats])),
         plane_drainage=arr([DRAINAGE[d.kind] for d in planes_drainage] or [0], wp.int32),
         plane_pressure=arr([d.pore_pressure for d in planes_drainage] or [0.0]),
         plane_head=arr([nan if d.head is None else d.head for d in planes_drainage] or [nan]),

@@ -342,9 +342,8 @@ class Solver:
             wp.copy(self.held_pressure, state.particle_pore_pressure)
         launch_rows(groundwater_kernels(m.spec)["bishop_excess"], m.particle_count,
                     [state.particle_q, m.particle_material, pw.material_water_density, m.spec.vec3(*pw.gravity),
-                     wp.float64(pw.water_table), pw.material_retention, pw.material_retention_alpha,
-                     pw.material_retention_n, pw.material_residual_saturation, state.particle_pore_pressure,
-                     self.held_pressure], m.device)  # fmt: skip
+                     wp.float64(pw.water_table), pw.retention, state.particle_pore_pressure, self.held_pressure],
+                    m.device)  # fmt: skip
 
     # -- collocated baseline --------------------------------------------------------------------
     def _init_collocated(self) -> None:

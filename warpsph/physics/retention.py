@@ -40,3 +40,27 @@ def retention_state(kind: int, alpha: f64, n: f64, residual: f64, rho_g: f64, p:
     slope = m * n * alpha * wp.pow(alpha * suction, n - one) * wp.pow(one + scaled, -m - one) / rho_g
     mualem = one - wp.pow(one - wp.pow(se, one / m), m)
     return residual + (one - residual) * se, (one - residual) * slope, wp.max(wp.sqrt(se) * mualem * mualem, FLOOR)
+
+
+@wp.struct
+class RetentionLaws:
+    """Each material's water retention, as the kernels take it: the law's code (:data:`RETENTION`),
+    α [1/m], van Genuchten n [-] and the residual saturation S_r [-], (n_materials,) each."""
+
+    kind: wp.array(dtype=wp.int32)
+    alpha: wp.array(dtype=f64)
+    n: wp.array(dtype=f64)
+    residual: wp.array(dtype=f64)
+
+
+def retention_laws(kind: wp.array, alpha: wp.array, n: wp.array, residual: wp.array) -> RetentionLaws:
+    """The :class:`RetentionLaws` of these per-material arrays."""
+    laws = RetentionLaws()
+    laws.kind, laws.alpha, laws.n, laws.residual = kind, alpha, n, residual
+    return laws
+
+
+@wp.func
+def material_retention_state(laws: RetentionLaws, mat: int, rho_g: f64, p: f64):
+    """:func:`retention_state` with material ``mat``'s law."""
+    return retention_state(laws.kind[mat], laws.alpha[mat], laws.n[mat], laws.residual[mat], rho_g, p)

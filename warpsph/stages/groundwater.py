@@ -137,8 +137,7 @@ class GroundwaterFlow:
         m, pw = self.model, self.model.pore
         launch_rows(self.k["retention_fields"], m.particle_count,
                     [self.state.particle_q, m.particle_material, pw.material_water_density, m.spec.vec3(*pw.gravity),
-                     wp.float64(pw.water_table), pw.material_retention, pw.material_retention_alpha,
-                     pw.material_retention_n, pw.material_residual_saturation, pw.material_porosity, p,
+                     wp.float64(pw.water_table), pw.retention, pw.material_porosity, p,
                      out_saturation or self.saturation, self.capacity, self.relative], m.device)  # fmt: skip
 
     def solve(self, t: float, dt: float | None, max_iterations: int = MAX_ITERATIONS,

@@ -6,7 +6,7 @@ import functools
 
 import warp as wp
 
-from warpsph.physics.retention import retention_state
+from warpsph.physics.retention import RetentionLaws, material_retention_state
 from warpsph.sph.kernels import smoothing_functions
 from warpsph.sph.spec import Spec
 from warpsph.stages.boundaries import plane_functions
@@ -33,8 +33,7 @@ def groundwater_kernels(spec: Spec):
     @wp.kernel(enable_backward=False, module="unique")
     def retention_fields(
         first: int, q: wp.array(dtype=vec3), material: wp.array(dtype=wp.int32),
-        water_density: wp.array(dtype=f64), gravity: vec3, water_table: f64, retention: wp.array(dtype=wp.int32),
-        alpha: wp.array(dtype=f64), vg_n: wp.array(dtype=f64), residual: wp.array(dtype=f64),
+        water_density: wp.array(dtype=f64), gravity: vec3, water_table: f64, retention: RetentionLaws,
         porosity: wp.array(dtype=f64), p: wp.array(dtype=f64),
         saturation: wp.array(dtype=f64), capacity: wp.array(dtype=f64), relative: wp.array(dtype=f64),
     ):  # fmt: skip
@@ -43,8 +42,7 @@ def groundwater_kernels(spec: Spec):
         mat = material[a]
         rho_w = water_density[mat]
         total = p[a] + hydrostatic(q[a], rho_w, gravity, water_table)
-        s, slope, kr = retention_state(retention[mat], alpha[mat], vg_n[mat], residual[mat],
-                                       rho_w * f64(wp.length(gravity)), total)  # fmt: skip
+        s, slope, kr = material_retention_state(retention, mat, rho_w * f64(wp.length(gravity)), total)
         saturation[a] = s
         capacity[a] = porosity[mat] * slope
         relative[a] = kr
@@ -209,9 +207,7 @@ def groundwater_kernels(spec: Spec):
     @wp.kernel(enable_backward=False, module="unique")
     def bishop_excess(
         first: int, q: wp.array(dtype=vec3), material: wp.array(dtype=wp.int32), water_density: wp.array(dtype=f64),
-        gravity: vec3, water_table: f64, retention: wp.array(dtype=wp.int32), alpha: wp.array(dtype=f64),
-        vg_n: wp.array(dtype=f64), residual_saturation: wp.array(dtype=f64), p: wp.array(dtype=f64),
-        out: wp.array(dtype=f64),
+        gravity: vec3, water_table: f64, retention: RetentionLaws, p: wp.array(dtype=f64), out: wp.array(dtype=f64),
     ):  # fmt: skip
         """The excess pressure whose total is Bishop's χ p_w, χ = S_e (1 at p_w ≥ 0 and in saturated
         soil): the pore pressure the total stress σ′ − χ p_w I carries."""
@@ -220,9 +216,8 @@ def groundwater_kernels(spec: Spec):
         rho_w = water_density[mat]
         hydro = hydrostatic(q[a], rho_w, gravity, water_table)
         total = p[a] + hydro
-        s, _slope, _kr = retention_state(retention[mat], alpha[mat], vg_n[mat], residual_saturation[mat],
-                                         rho_w * f64(wp.length(gravity)), total)  # fmt: skip
-        chi = (s - residual_saturation[mat]) / (f64(1.0) - residual_saturation[mat])
+        s, _slope, _kr = material_retention_state(retention, mat, rho_w * f64(wp.length(gravity)), total)
+        chi = (s - retention.residual[mat]) / (f64(1.0) - retention.residual[mat])
         out[a] = chi * total - hydro
 
     @wp.kernel(enable_backward=False, module="unique")
