@@ -49,12 +49,34 @@ def plane_functions(spec: Spec):
 
 
 @functools.cache
+def planes_struct(spec: Spec):
+    """The ``Planes`` @wp.struct of ``spec``'s precision: the boundary planes as the ghost and prescription
+    kernels take them, (P,) each: axis, current position [m], outward sign, kind, prescribed vector (a
+    velocity [m/s] or a traction [Pa]), extent lo and hi [m], and the load factor f(t) of the time."""
+    real, vec3 = spec.real, spec.vec3
+
+    @wp.struct
+    class Planes:
+        axis: wp.array(dtype=wp.int32)
+        position: wp.array(dtype=real)
+        sign: wp.array(dtype=real)
+        kind: wp.array(dtype=wp.int32)
+        vector: wp.array(dtype=vec3)
+        lo: wp.array(dtype=vec3)
+        hi: wp.array(dtype=vec3)
+        factor: wp.array(dtype=real)
+
+    return Planes
+
+
+@functools.cache
 def _kernels(spec: Spec):
     real, vec3, mat33 = spec.real, spec.vec3, spec.mat33
     two = real(2.0)
     pore_water = spec.effects.pore_water
     traction_here, drainage_here = plane_functions(spec)
     psi = strain_energy_function(spec)
+    Planes = planes_struct(spec)
 
     @wp.func
     def pore_pressure_at(i: int, x: vec3, pore: wp.array(dtype=wp.float64), material: wp.array(dtype=wp.int32),
@@ -68,14 +90,7 @@ def _kernels(spec: Spec):
         n_owned: int,
         source: wp.array(dtype=wp.int32),
         chain: wp.array(dtype=wp.vec3i),
-        plane_axis: wp.array(dtype=wp.int32),
-        plane_position: wp.array(dtype=real),
-        plane_sign: wp.array(dtype=real),
-        plane_kind: wp.array(dtype=wp.int32),
-        plane_vector: wp.array(dtype=vec3),
-        plane_lo: wp.array(dtype=vec3),
-        plane_hi: wp.array(dtype=vec3),
-        factor: wp.array(dtype=real),
+        planes: Planes,
         gravity: vec3,
         material: wp.array(dtype=wp.int32),
         water_density: wp.array(dtype=wp.float64),
@@ -98,21 +113,21 @@ def _kernels(spec: Spec):
         weight = density[src]  # the stress gradient at a wall balances (ρ − ρ_w) b
         if wp.static(pore_water):
             weight = weight - real(water_density[material[src]])
-        planes = chain[g]
+        on = chain[g]
         for c in range(3):
-            p = planes[c]
+            p = on[c]
             if p >= 0:
-                m = plane_axis[p]
-                kind = plane_kind[p]
-                depth = plane_sign[p] * (plane_position[p] - x[m])
-                x[m] = two * plane_position[p] - x[m]
+                m = planes.axis[p]
+                kind = planes.kind[p]
+                depth = planes.sign[p] * (planes.position[p] - x[m])
+                x[m] = two * planes.position[p] - x[m]
                 if kind != PLANE_TRACTION:
                     # at rest against a wall ∂σ_nn/∂n = −ρ b·n: continue σ_nn linearly, not evenly
-                    s[m, m] = s[m, m] - two * depth * weight * plane_sign[p] * gravity[m]
+                    s[m, m] = s[m, m] - two * depth * weight * planes.sign[p] * gravity[m]
                 if kind == PLANE_FIXED:
                     u = -u
                 elif kind == PLANE_VELOCITY:
-                    u = two * plane_vector[p] * factor[p] - u
+                    u = two * planes.vector[p] * planes.factor[p] - u
                 elif kind == PLANE_SLIP:
                     u[m] = -u[m]
                     for k in range(3):
@@ -122,8 +137,8 @@ def _kernels(spec: Spec):
                 else:
                     # the load at the source's own point: a ghost of a ghost across a symmetry
                     # plane sees the mirror image of the load, not the load at its mirrored place
-                    t = traction_here(p, origin[src], m, plane_vector, plane_lo, plane_hi, factor)
-                    sign = plane_sign[p]
+                    t = traction_here(p, origin[src], m, planes.vector, planes.lo, planes.hi, planes.factor)
+                    sign = planes.sign[p]
                     for k in range(3):
                         s[m, k] = two * sign * t[k] - s[m, k]
                         if k != m:
@@ -145,13 +160,7 @@ def _kernels(spec: Spec):
     def prescribe_on_planes(
         particle: wp.array(dtype=wp.int32),
         planes_of: wp.array(dtype=wp.vec3i),
-        plane_axis: wp.array(dtype=wp.int32),
-        plane_sign: wp.array(dtype=real),
-        plane_kind: wp.array(dtype=wp.int32),
-        plane_vector: wp.array(dtype=vec3),
-        plane_lo: wp.array(dtype=vec3),
-        plane_hi: wp.array(dtype=vec3),
-        factor: wp.array(dtype=real),
+        planes: Planes,
         gravity: vec3,
         material: wp.array(dtype=wp.int32),
         water_density: wp.array(dtype=wp.float64),
@@ -176,22 +185,22 @@ def _kernels(spec: Spec):
         a = particle[i]
         u = v[a]
         s = stress[a]
-        planes = planes_of[i]
+        on = planes_of[i]
         for c in range(3):
-            p = planes[c]
+            p = on[c]
             if p >= 0:
-                m = plane_axis[p]
-                kind = plane_kind[p]
+                m = planes.axis[p]
+                kind = planes.kind[p]
                 if kind == PLANE_FIXED:
                     u = vec3(real(0.0), real(0.0), real(0.0))
                 elif kind == PLANE_VELOCITY:
-                    u = plane_vector[p] * factor[p]
+                    u = planes.vector[p] * planes.factor[p]
                 elif kind == PLANE_SLIP:
                     u[m] = real(0.0)
                 else:
-                    t = traction_here(p, origin[a], m, plane_vector, plane_lo, plane_hi, factor)
+                    t = traction_here(p, origin[a], m, planes.vector, planes.lo, planes.hi, planes.factor)
                     for k in range(3):
-                        s[m, k] = plane_sign[p] * t[k]
+                        s[m, k] = planes.sign[p] * t[k]
                         s[k, m] = s[m, k]
                     if wp.static(pore_water):
                         # as for the ghosts: only an impermeable face shares its load
@@ -265,6 +274,12 @@ class Boundaries:
             for p in planes[planes >= 0]:
                 counts[p] += 1
         self._on_plane_count = wp.array(counts, dtype=real, device=model.device)
+        self.planes = planes_struct(model.spec)()
+        """The planes as the kernels take them (their current positions and load factors)."""
+        p = self.planes
+        p.axis, p.position, p.sign, p.kind = model.plane_axis, self.plane_position, model.plane_sign, model.plane_kind
+        p.vector, p.lo, p.hi = model.plane_vector, model.plane_extent_lo, model.plane_extent_hi
+        p.factor = self.plane_factor
 
     def set_time(self, t: float) -> None:
         """Evaluate every load's time function at ``t`` [s] (a no-op if already there)."""
@@ -287,9 +302,7 @@ class Boundaries:
                m.device)  # fmt: skip
 
     def _plane_args(self):
-        m = self.model
-        return [m.plane_axis, self.plane_position, m.plane_sign, m.plane_kind, m.plane_vector,
-                m.plane_extent_lo, m.plane_extent_hi, self.plane_factor]  # fmt: skip
+        return [self.planes]
 
     def _water_args(self, material, pore):
         """Body force and pore-water arguments of the ghost and prescription kernels."""
