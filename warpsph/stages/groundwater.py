@@ -12,6 +12,7 @@ from warpsph.model import Model, State
 from warpsph.scene import STANDARD_GRAVITY
 from warpsph.stages.groundwater_kernels import groundwater_kernels
 from warpsph.stages.linear_solve import LinearSolver
+from warpsph.stages.pressure_kernels import drained_planes
 from warpsph.stages.surface_water import wetted_regions
 
 MAX_ITERATIONS = 40
@@ -73,6 +74,9 @@ class GroundwaterFlow:
         self.weight, self.column = zeros(size), zeros(size, wp.int32)
         self.plane_pressure, self.plane_head, self.plane_inflow = (
             wp.clone(pw.plane_pressure), wp.clone(pw.plane_head), wp.clone(pw.plane_inflow))  # fmt: skip
+        self.drained = drained_planes(model, solver.boundaries.plane_position, self.plane_pressure, self.plane_head,
+                                      self.plane_inflow)  # fmt: skip
+        """The planes with the flow's own prescribed values, as the kernels take them."""
         self.linear = LinearSolver(n, dev, m.scene.pressure)
         self.seeping = (self.surface & (self._excess() + self.hydro >= 0.0)).astype(np.int32)
         """1 on the seepage-face particles held at atmospheric pressure (water leaves there)."""
@@ -121,16 +125,13 @@ class GroundwaterFlow:
     # -- one step -------------------------------------------------------------------------------
     def _args(self, inv_dt: float, p_iter):
         m, pw = self.model, self.model.pore
-        b = self.projection.solver.boundaries
         nl = self.lists
         return [m.spec.real(m.h), wp.float64(inv_dt), wp.float64(self.projection.scale), m.particle_count,
                 nl.offsets, nl.indices, self.state.particle_q, m.particle_origin, m.particle_mass,
                 self.state.particle_density, m.particle_material, pw.material_permeability, pw.material_inv_biot,
                 self.relative, self.saturation, self.capacity, self.saturation_start, pw.material_porosity, p_iter,
                 self.p_start, self.coupling_storage, self.coupling_source, m.particle_ghost_source,
-                m.particle_ghost_planes, m.plane_axis, b.plane_position,
-                m.plane_sign, m.plane_kind, pw.plane_drainage, pw.plane_drained_lo, pw.plane_drained_hi,
-                self.plane_pressure, self.plane_head, self.plane_inflow, pw.material_water_density,
+                m.particle_ghost_planes, self.drained, pw.material_water_density,
                 m.spec.vec3(*pw.gravity), wp.float64(pw.water_table), self.dirichlet]  # fmt: skip
 
     def _retention(self, p, out_saturation=None) -> None:

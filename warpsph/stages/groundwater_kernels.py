@@ -11,7 +11,7 @@ from warpsph.sph.kernels import smoothing_functions
 from warpsph.sph.spec import Spec
 from warpsph.stages.boundaries import plane_functions
 from warpsph.stages.linear_solve import apply_row
-from warpsph.stages.pressure_kernels import ETA, fold_conditions, held_row, pressure_kernels
+from warpsph.stages.pressure_kernels import ETA, drained_planes_struct, fold_conditions, held_row, pressure_kernels
 
 
 @functools.cache
@@ -23,6 +23,7 @@ def groundwater_kernels(spec: Spec):
     _W, grad_W = smoothing_functions(spec)
     _traction, drainage_here = plane_functions(spec)
     ghost_affine = pressure_kernels(spec)["ghost_affine"]
+    DrainedPlanes = drained_planes_struct(spec)
 
     @wp.func
     def hydrostatic(x: vec3, water_density: f64, gravity: vec3, water_table: f64):
@@ -52,10 +53,7 @@ def groundwater_kernels(spec: Spec):
         a: int, j: int, n: int, h: real, scale: f64, q: wp.array(dtype=vec3), origin: wp.array(dtype=vec3),
         mass: wp.array(dtype=real), density: wp.array(dtype=real), material: wp.array(dtype=wp.int32),
         permeability: wp.array(dtype=f64), relative: wp.array(dtype=f64), ghost_source: wp.array(dtype=wp.int32),
-        ghost_chain: wp.array(dtype=wp.vec3i), plane_axis: wp.array(dtype=wp.int32),
-        plane_position: wp.array(dtype=real), plane_sign: wp.array(dtype=real), plane_kind: wp.array(dtype=wp.int32),
-        drainage: wp.array(dtype=wp.int32), drained_lo: wp.array(dtype=vec3), drained_hi: wp.array(dtype=vec3),
-        drained_pressure: wp.array(dtype=f64), head: wp.array(dtype=f64), inflow: wp.array(dtype=f64),
+        ghost_chain: wp.array(dtype=wp.vec3i), planes: DrainedPlanes,
         water_density: wp.array(dtype=f64), gravity: vec3, water_table: f64,
     ):  # fmt: skip
         """(col, w, s, c, plane) of row a's neighbour j: the pair's Darcy weight V_a V_j κ_aj m_aj with
@@ -74,16 +72,14 @@ def groundwater_kernels(spec: Spec):
             g = j - n
             col = ghost_source[g]
             where = real(0.5) * (origin[a] + origin[col])
-            s, c, _s_m, _c_m = ghost_affine(g, ghost_source, ghost_chain, q, where, plane_axis, plane_position,
-                                            plane_sign, plane_kind, drainage, drained_lo, drained_hi,
-                                            drained_pressure, head, inflow, water_density[mat_j],
+            s, c, _s_m, _c_m = ghost_affine(g, ghost_source, ghost_chain, q, where, planes, water_density[mat_j],
                                             permeability[mat_j] * relative[col], gravity, water_table,
                                             0)  # fmt: skip
             chain = ghost_chain[g]
             for i in range(3):
                 pl = chain[i]
                 if pl >= 0 and plane < 0:
-                    if drainage_here(pl, where, plane_axis[pl], drainage, drained_lo, drained_hi) != 0:
+                    if drainage_here(pl, where, planes.axis[pl], planes.drainage, planes.lo, planes.hi) != 0:
                         plane = pl
         k_a = permeability[material[a]]
         k_j = permeability[mat_j]
@@ -123,10 +119,7 @@ def groundwater_kernels(spec: Spec):
         porosity: wp.array(dtype=f64), p_iter: wp.array(dtype=f64), p_start: wp.array(dtype=f64),
         coupling_storage: wp.array(dtype=f64), coupling_source: wp.array(dtype=f64),
         ghost_source: wp.array(dtype=wp.int32), ghost_chain: wp.array(dtype=wp.vec3i),
-        plane_axis: wp.array(dtype=wp.int32), plane_position: wp.array(dtype=real), plane_sign: wp.array(dtype=real),
-        plane_kind: wp.array(dtype=wp.int32), drainage: wp.array(dtype=wp.int32), drained_lo: wp.array(dtype=vec3),
-        drained_hi: wp.array(dtype=vec3), drained_pressure: wp.array(dtype=f64), head: wp.array(dtype=f64),
-        inflow: wp.array(dtype=f64), water_density: wp.array(dtype=f64), gravity: vec3, water_table: f64,
+        planes: DrainedPlanes, water_density: wp.array(dtype=f64), gravity: vec3, water_table: f64,
         dirichlet: wp.array(dtype=wp.int32), value: wp.array(dtype=f64), face_factor: wp.array(dtype=f64),
         weight: wp.array(dtype=f64), column: wp.array(dtype=wp.int32), diag: wp.array(dtype=f64),
         rhs: wp.array(dtype=f64),
@@ -138,10 +131,8 @@ def groundwater_kernels(spec: Spec):
                        saturation_start, porosity, p_iter, p_start, coupling_storage, coupling_source)  # fmt: skip
         for k in range(offsets[a], offsets[a + 1]):
             col, w, s, c, _plane = flow_pair(a, nbr[k], n, h, scale, q, origin, mass, density, material,
-                                             permeability, relative, ghost_source, ghost_chain, plane_axis,
-                                             plane_position, plane_sign, plane_kind, drainage, drained_lo,
-                                             drained_hi, drained_pressure, head, inflow, water_density, gravity,
-                                             water_table)  # fmt: skip
+                                             permeability, relative, ghost_source, ghost_chain, planes, water_density,
+                                             gravity, water_table)  # fmt: skip
             w = w * face_factor[a]
             d += w
             b += w * c
@@ -163,10 +154,7 @@ def groundwater_kernels(spec: Spec):
         porosity: wp.array(dtype=f64), p_iter: wp.array(dtype=f64), p_start: wp.array(dtype=f64),
         coupling_storage: wp.array(dtype=f64), coupling_source: wp.array(dtype=f64),
         ghost_source: wp.array(dtype=wp.int32), ghost_chain: wp.array(dtype=wp.vec3i),
-        plane_axis: wp.array(dtype=wp.int32), plane_position: wp.array(dtype=real), plane_sign: wp.array(dtype=real),
-        plane_kind: wp.array(dtype=wp.int32), drainage: wp.array(dtype=wp.int32), drained_lo: wp.array(dtype=vec3),
-        drained_hi: wp.array(dtype=vec3), drained_pressure: wp.array(dtype=f64), head: wp.array(dtype=f64),
-        inflow: wp.array(dtype=f64), water_density: wp.array(dtype=f64), gravity: vec3, water_table: f64,
+        planes: DrainedPlanes, water_density: wp.array(dtype=f64), gravity: vec3, water_table: f64,
         dirichlet: wp.array(dtype=wp.int32), face_factor: wp.array(dtype=f64), tag: wp.array(dtype=wp.int32),
         n_tags: int, p: wp.array(dtype=f64), released: wp.array(dtype=f64), discharge: wp.array(dtype=f64),
         stored: wp.array(dtype=f64),
@@ -184,10 +172,8 @@ def groundwater_kernels(spec: Spec):
             discharge[a * n_tags + t] = zero
         for k in range(offsets[a], offsets[a + 1]):
             col, w, s, c, plane = flow_pair(a, nbr[k], n, h, scale, q, origin, mass, density, material,
-                                            permeability, relative, ghost_source, ghost_chain, plane_axis,
-                                            plane_position, plane_sign, plane_kind, drainage, drained_lo,
-                                            drained_hi, drained_pressure, head, inflow, water_density, gravity,
-                                            water_table)  # fmt: skip
+                                            permeability, relative, ghost_source, ghost_chain, planes, water_density,
+                                            gravity, water_table)  # fmt: skip
             w = w * face_factor[a]
             neighbour = s * p[col] + c
             d += w

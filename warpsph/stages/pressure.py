@@ -17,6 +17,7 @@ from warpsph.stages.pressure_kernels import (
     faded_by_draining,
     laplacian_scale,
     lattice_morris_sum,
+    drained_planes,
     pressure_kernels,
 )
 from warpsph.stages.surface_water import wetted_regions
@@ -43,6 +44,10 @@ class PressureProjection:
 
     def __init__(self, model: Model, solver):
         self.model, self.solver = model, solver
+        pw = model.pore
+        self.planes = drained_planes(model, solver.boundaries.plane_position, pw.plane_pressure, pw.plane_head,
+                                     pw.plane_inflow)  # fmt: skip
+        """The planes as the kernels take them (the boundaries' positions, moved in place with the planes)."""
         m, dev = model, model.device
         n, ne, nv = m.particle_count, m.particle_capacity, m.virtual_capacity
         f64 = wp.float64
@@ -138,9 +143,7 @@ class PressureProjection:
         return image
 
     def _plane_args(self):
-        m, pw, b = self.model, self.model.pore, self.solver.boundaries
-        return [m.plane_axis, b.plane_position, m.plane_sign, m.plane_kind, pw.plane_drainage, pw.plane_drained_lo,
-                pw.plane_drained_hi, pw.plane_pressure, pw.plane_head, pw.plane_inflow]  # fmt: skip
+        return [self.planes]
 
     def update_ghosts(self, q, p, homogeneous: bool, virtual: bool = False, momentum: bool = False) -> None:
         """Pressure-parity values of the ghosts of the real (or virtual) set in ``p`` (with ``momentum``:
@@ -156,7 +159,7 @@ class PressureProjection:
                                                  m.particle_origin)  # fmt: skip
         args = self._plane_args()
         launch(self.k["pressure_ghosts"], count,
-               [n, src, chain, q, origin, mat, args[0], args[1], args[2], *args[3:], pw.material_water_density,
+               [n, src, chain, q, origin, mat, *args, pw.material_water_density,
                 pw.material_permeability, m.spec.vec3(*pw.gravity), wp.float64(pw.water_table), int(homogeneous),
                 int(momentum), p],
                m.device)  # fmt: skip

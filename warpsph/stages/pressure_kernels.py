@@ -96,6 +96,42 @@ def lattice_morris_sum(kind: str, dim: int, dx: float, ratio: float) -> float:
 
 
 @functools.cache
+def drained_planes_struct(spec: Spec):
+    """The ``DrainedPlanes`` @wp.struct of ``spec``'s precision: the boundary planes as the pore-water
+    kernels take them, (P,) each: axis, current position [m], outward sign, kind, drainage kind (0
+    impermeable, 1 drained, 2 inflow) and its extent lo and hi [m], the drained pressure [Pa], head [m]
+    (NaN: none) and inflow [m/s]."""
+    real, vec3, f64 = spec.real, spec.vec3, wp.float64
+
+    @wp.struct
+    class DrainedPlanes:
+        axis: wp.array(dtype=wp.int32)
+        position: wp.array(dtype=real)
+        sign: wp.array(dtype=real)
+        kind: wp.array(dtype=wp.int32)
+        drainage: wp.array(dtype=wp.int32)
+        lo: wp.array(dtype=vec3)
+        hi: wp.array(dtype=vec3)
+        pressure: wp.array(dtype=f64)
+        head: wp.array(dtype=f64)
+        inflow: wp.array(dtype=f64)
+
+    return DrainedPlanes
+
+
+def drained_planes(model, position: wp.array, pressure: wp.array, head: wp.array, inflow: wp.array):
+    """The :func:`drained_planes_struct` of ``model``'s planes at their current ``position`` [m], with
+    these prescribed pressures, heads and inflows (the pore-water model's, or a flow phase's own)."""
+    pw = model.pore
+    planes = drained_planes_struct(model.spec)()
+    planes.axis, planes.position, planes.sign = model.plane_axis, position, model.plane_sign
+    planes.kind = model.plane_kind
+    planes.drainage, planes.lo, planes.hi = pw.plane_drainage, pw.plane_drained_lo, pw.plane_drained_hi
+    planes.pressure, planes.head, planes.inflow = pressure, head, inflow
+    return planes
+
+
+@functools.cache
 def pressure_kernels(spec: Spec):
     """The projection's Warp kernels for ``spec``, by name."""
     real, vec3 = spec.real, spec.vec3
@@ -105,6 +141,7 @@ def pressure_kernels(spec: Spec):
 
     _W, grad_W = smoothing_functions(spec)
     _traction, drainage_here = plane_functions(spec)
+    DrainedPlanes = drained_planes_struct(spec)
     zero = f64(0.0)
 
     @wp.func
@@ -121,11 +158,7 @@ def pressure_kernels(spec: Spec):
 
     @wp.func
     def ghost_affine(g: int, source: wp.array(dtype=wp.int32), chain: wp.array(dtype=wp.vec3i),
-                     q: wp.array(dtype=vec3), where: vec3, plane_axis: wp.array(dtype=wp.int32),
-                     plane_position: wp.array(dtype=real), plane_sign: wp.array(dtype=real),
-                     plane_kind: wp.array(dtype=wp.int32), drainage: wp.array(dtype=wp.int32),
-                     drained_lo: wp.array(dtype=vec3), drained_hi: wp.array(dtype=vec3),
-                     drained_pressure: wp.array(dtype=f64), head: wp.array(dtype=f64), inflow: wp.array(dtype=f64),
+                     q: wp.array(dtype=vec3), where: vec3, planes: DrainedPlanes,
                      water_density: f64, k: f64, gravity: vec3, water_table: f64, homogeneous: int):  # fmt: skip
         """(s, c, s_m, c_m) with p_ghost = s p_source + c for ghost g (c = 0 when ``homogeneous``);
         each plane drains (odd parity) where the initial position ``where`` lies in its drained extent.
@@ -139,13 +172,13 @@ def pressure_kernels(spec: Spec):
         c = zero
         s_m = f64(1.0)
         c_m = zero
-        planes = chain[g]
+        on = chain[g]
         for i in range(3):
-            p = planes[i]
+            p = on[i]
             if p >= 0:
-                m = plane_axis[p]
-                kind = drainage_here(p, where, m, drainage, drained_lo, drained_hi)
-                traction = plane_kind[p] == PLANE_TRACTION
+                m = planes.axis[p]
+                kind = drainage_here(p, where, m, planes.drainage, planes.lo, planes.hi)
+                traction = planes.kind[p] == PLANE_TRACTION
                 if kind == 1:
                     s = -s
                     c = -c
@@ -153,38 +186,34 @@ def pressure_kernels(spec: Spec):
                     c_m = -c_m
                     if homogeneous == 0:
                         xp = x
-                        xp[m] = plane_position[p]
+                        xp[m] = planes.position[p]
                         excess = f64(2.0) * plane_excess(p, xp, water_density, gravity, water_table,
-                                                         drained_pressure, head)  # fmt: skip
+                                                         planes.pressure, planes.head)  # fmt: skip
                         c += excess
                         c_m += excess
                 else:
                     if kind == 2 and homogeneous == 0 and k > zero:
-                        depth = f64(plane_sign[p] * (plane_position[p] - x[m]))
-                        c += f64(2.0) * depth * inflow[p] / k
+                        depth = f64(planes.sign[p] * (planes.position[p] - x[m]))
+                        c += f64(2.0) * depth * planes.inflow[p] / k
                         if not traction:
-                            c_m += f64(2.0) * depth * inflow[p] / k
+                            c_m += f64(2.0) * depth * planes.inflow[p] / k
                     if traction:
                         s_m = -s_m
                         c_m = -c_m
-                x[m] = real(2.0) * plane_position[p] - x[m]
+                x[m] = real(2.0) * planes.position[p] - x[m]
         return s, c, s_m, c_m
 
     @wp.kernel(enable_backward=False, module="unique")
     def pressure_ghosts(
         n_owned: int, source: wp.array(dtype=wp.int32), chain: wp.array(dtype=wp.vec3i), q: wp.array(dtype=vec3),
-        origin: wp.array(dtype=vec3), material: wp.array(dtype=wp.int32), plane_axis: wp.array(dtype=wp.int32),
-        plane_position: wp.array(dtype=real), plane_sign: wp.array(dtype=real), plane_kind: wp.array(dtype=wp.int32),
-        drainage: wp.array(dtype=wp.int32), drained_lo: wp.array(dtype=vec3), drained_hi: wp.array(dtype=vec3),
-        drained_pressure: wp.array(dtype=f64), head: wp.array(dtype=f64), inflow: wp.array(dtype=f64),
+        origin: wp.array(dtype=vec3), material: wp.array(dtype=wp.int32), planes: DrainedPlanes,
         water_density: wp.array(dtype=f64), permeability: wp.array(dtype=f64), gravity: vec3, water_table: f64,
         homogeneous: int, momentum: int, p: wp.array(dtype=f64),
     ):  # fmt: skip
         g = wp.tid()
         src = source[g]
         mat = material[src]
-        s, c, s_m, c_m = ghost_affine(g, source, chain, q, origin[src], plane_axis, plane_position, plane_sign,
-                                      plane_kind, drainage, drained_lo, drained_hi, drained_pressure, head, inflow,
+        s, c, s_m, c_m = ghost_affine(g, source, chain, q, origin[src], planes,
                                       water_density[mat], permeability[mat], gravity, water_table,
                                       homogeneous)  # fmt: skip
         if momentum == 1:
@@ -313,11 +342,7 @@ def pressure_kernels(spec: Spec):
                    origin: wp.array(dtype=vec3), material: wp.array(dtype=wp.int32),
                    permeability: wp.array(dtype=f64), water_density: wp.array(dtype=f64), gravity: vec3,
                    ghost_source: wp.array(dtype=wp.int32), ghost_chain: wp.array(dtype=wp.vec3i),
-                   q: wp.array(dtype=vec3), plane_axis: wp.array(dtype=wp.int32),
-                   plane_position: wp.array(dtype=real), plane_sign: wp.array(dtype=real),
-                   plane_kind: wp.array(dtype=wp.int32), drainage: wp.array(dtype=wp.int32),
-                   drained_lo: wp.array(dtype=vec3), drained_hi: wp.array(dtype=vec3),
-                   drained_pressure: wp.array(dtype=f64), head: wp.array(dtype=f64), inflow: wp.array(dtype=f64),
+                   q: wp.array(dtype=vec3), planes: DrainedPlanes,
                    water_table: f64):  # fmt: skip
         """(1, p_j) if neighbour j takes part in the roughness fit of particle a, else (0, 0): owned
         particles off the Dirichlet rows, and the ghosts of such particles across planes that mirror
@@ -332,8 +357,7 @@ def pressure_kernels(spec: Spec):
             return 0, zero
         mat = material[src]
         s, c, s_m, c_m = ghost_affine(g, ghost_source, ghost_chain, q, real(0.5) * (origin[a] + origin[src]),
-                                      plane_axis, plane_position, plane_sign, plane_kind, drainage, drained_lo,
-                                      drained_hi, drained_pressure, head, inflow, water_density[mat],
+                                      planes, water_density[mat],
                                       permeability[mat], gravity, water_table, 0)  # fmt: skip
         if s < zero:
             return 0, zero
@@ -363,10 +387,7 @@ def pressure_kernels(spec: Spec):
         q: wp.array(dtype=vec3), origin: wp.array(dtype=vec3), mass: wp.array(dtype=real),
         density: wp.array(dtype=real), material: wp.array(dtype=wp.int32), permeability: wp.array(dtype=f64),
         water_density: wp.array(dtype=f64), gravity: vec3, ghost_source: wp.array(dtype=wp.int32),
-        ghost_chain: wp.array(dtype=wp.vec3i), plane_axis: wp.array(dtype=wp.int32),
-        plane_position: wp.array(dtype=real), plane_sign: wp.array(dtype=real), plane_kind: wp.array(dtype=wp.int32),
-        drainage: wp.array(dtype=wp.int32), drained_lo: wp.array(dtype=vec3), drained_hi: wp.array(dtype=vec3),
-        drained_pressure: wp.array(dtype=f64), head: wp.array(dtype=f64), inflow: wp.array(dtype=f64), water_table: f64,
+        ghost_chain: wp.array(dtype=wp.vec3i), planes: DrainedPlanes, water_table: f64,
         dirichlet: wp.array(dtype=wp.int32), p: wp.array(dtype=f64),
     ):  # fmt: skip
         """(Πp [Pa], corrected, found): the linear fit of p at particle a over the neighbours
@@ -386,8 +407,7 @@ def pressure_kernels(spec: Spec):
             j = nbr[k]
             if with_self == 1 or source_of(j, n, ghost_source) != a:
                 used, value = fit_source(j, a, n, p, dirichlet, origin, material, permeability, water_density,
-                                         gravity, ghost_source, ghost_chain, q, plane_axis, plane_position, plane_sign,
-                                         plane_kind, drainage, drained_lo, drained_hi, drained_pressure, head, inflow,
+                                         gravity, ghost_source, ghost_chain, q, planes,
                                          water_table)  # fmt: skip
                 if used == 1:
                     w0, wr, g0, M, w, g = add_to_fit(q[j] - x, mass[j] / density[j], h, w0, wr, g0, M)
@@ -420,11 +440,7 @@ def pressure_kernels(spec: Spec):
             q: wp.array(dtype=vec3), origin: wp.array(dtype=vec3), mass: wp.array(dtype=real),
             density: wp.array(dtype=real), material: wp.array(dtype=wp.int32), permeability: wp.array(dtype=f64),
             water_density: wp.array(dtype=f64), gravity: vec3, ghost_source: wp.array(dtype=wp.int32),
-            ghost_chain: wp.array(dtype=wp.vec3i), plane_axis: wp.array(dtype=wp.int32),
-            plane_position: wp.array(dtype=real), plane_sign: wp.array(dtype=real),
-            plane_kind: wp.array(dtype=wp.int32), drainage: wp.array(dtype=wp.int32),
-            drained_lo: wp.array(dtype=vec3), drained_hi: wp.array(dtype=vec3), drained_pressure: wp.array(dtype=f64),
-            head: wp.array(dtype=f64), inflow: wp.array(dtype=f64), water_table: f64,
+            ghost_chain: wp.array(dtype=wp.vec3i), planes: DrainedPlanes, water_table: f64,
             selected: wp.array(dtype=wp.int32), everywhere: int, dirichlet: wp.array(dtype=wp.int32),
             p: wp.array(dtype=f64), out: wp.array(dtype=f64),
         ):  # fmt: skip
@@ -442,9 +458,7 @@ def pressure_kernels(spec: Spec):
                 return
             fit, corrected, found = fitted_pressure(a, wp.static(0 if sealed_faces else 1), h, n, offsets, nbr, q,
                                                     origin, mass, density, material, permeability, water_density,
-                                                    gravity, ghost_source, ghost_chain, plane_axis, plane_position,
-                                                    plane_sign, plane_kind, drainage, drained_lo, drained_hi,
-                                                    drained_pressure, head, inflow, water_table, dirichlet,
+                                                    gravity, ghost_source, ghost_chain, planes, water_table, dirichlet,
                                                     p)  # fmt: skip
             if wp.static(sealed_faces):
                 if found == 1:
@@ -465,10 +479,7 @@ def pressure_kernels(spec: Spec):
         permeability: wp.array(dtype=f64), inv_biot: wp.array(dtype=f64),
         water_density: wp.array(dtype=f64), gravity: vec3, v_star: wp.array(dtype=vec3),
         div_v_star: wp.array(dtype=f64), p_old: wp.array(dtype=f64), ghost_source: wp.array(dtype=wp.int32),
-        ghost_chain: wp.array(dtype=wp.vec3i), plane_axis: wp.array(dtype=wp.int32),
-        plane_position: wp.array(dtype=real), plane_sign: wp.array(dtype=real), plane_kind: wp.array(dtype=wp.int32),
-        drainage: wp.array(dtype=wp.int32), drained_lo: wp.array(dtype=vec3), drained_hi: wp.array(dtype=vec3),
-        drained_pressure: wp.array(dtype=f64), head: wp.array(dtype=f64), inflow: wp.array(dtype=f64), water_table: f64,
+        ghost_chain: wp.array(dtype=wp.vec3i), planes: DrainedPlanes, water_table: f64,
         dirichlet: wp.array(dtype=wp.int32), value: wp.array(dtype=f64),
         face_factor: wp.array(dtype=f64), momentum_image: wp.array(dtype=f64), eigenvalue: wp.array(dtype=real),
         exterior_threshold: real, lattice_sum: f64, rough: wp.array(dtype=f64), near_surface: wp.array(dtype=wp.int32),
@@ -512,9 +523,7 @@ def pressure_kernels(spec: Spec):
                 # a pair meeting across a plane drains by its midpoint, as its mirror pair does: the
                 # matrix stays symmetric where a drained extent ends
                 s, cst, s_dt, cst_dt = ghost_affine(g, ghost_source, ghost_chain, q,
-                                                    real(0.5) * (origin[a] + origin[col]), plane_axis,
-                                                    plane_position, plane_sign, plane_kind, drainage, drained_lo,
-                                                    drained_hi, drained_pressure, head, inflow, water_density[mat_j],
+                                                    real(0.5) * (origin[a] + origin[col]), planes, water_density[mat_j],
                                                     permeability[mat_j], gravity, water_table, 0)  # fmt: skip
             # a neighbour on an impermeable traction plane is its own odd mirror in the Δt/ρ part
             s_dt = s_dt * momentum_image[col]
