@@ -72,23 +72,25 @@ def plan(scene: Scene, device: str | None = None, timed: bool = True) -> RunPlan
     against every phase's particles), time a few steps of the first mechanical phase (unless not
     ``timed``) and count the rest."""
     from warpsph.builder import build
-    from warpsph.phases.carry import phase_particles
     from warpsph.scene_reach import check_probes_reach
     from warpsph.solver import Solver, warm_up
     from warpsph.stages.guard import Guard
 
     phases = default_phases(scene)
-    counts = {}
-    if scene.phases:
-        points = phase_particles(scene)
-        check_probes_reach(scene, points)
-        counts = {phase.name: len(p) for phase, p in zip(phases, points)}
     mechanical = [i for i, p in enumerate(phases) if p.kind != "k0" and p.kind not in IMPLICIT_PHASE_KINDS]
-    for index in range(len(scene.phases)):  # each phase's checks (the first mechanical one's below)
-        if not mechanical or index != mechanical[0]:
-            build(phase_scene(scene, index), device=device, staged=True)
-    first = phase_scene(scene, mechanical[0] if mechanical else 0) if scene.phases else scene
-    model, state = build(first, device=device, staged=bool(scene.phases))
+    timed_index = mechanical[0] if mechanical else 0
+    counts, points = {}, []
+    if scene.phases:  # every phase's model, one at a time, each built with its checks
+        for index, phase in enumerate(phases):
+            phase_model, phase_state = build(phase_scene(scene, index), device=device, staged=True)
+            counts[phase.name] = phase_model.particle_count
+            points.append(phase_model.particle_x0)
+            if index == timed_index:
+                model, state = phase_model, phase_state
+        check_probes_reach(scene, points)  # the point and region probes against every phase's particles
+    else:
+        model, state = build(scene, device=device)
+    first = phase_scene(scene, timed_index) if scene.phases else scene
     dt = first.time_step
     seconds_per_step = 0.0
     if mechanical and timed:

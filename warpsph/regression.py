@@ -11,6 +11,7 @@ import sys
 import time
 from pathlib import Path
 
+from warpsph.phases import phase_scene
 from warpsph.scene import Phase, Scene
 
 SCENES = Path(__file__).resolve().parent.parent / "scenes"
@@ -30,8 +31,6 @@ def shortened(scene: Scene) -> Scene:
     """``scene`` cut short, each of its phases run: a dynamic phase ``STEPS`` steps, an equilibrium
     (a safety trial) to its first check, a transient flow or consolidation 1/``SHORTER`` of its duration
     in two frames; frames every 5 steps of the explicit phases."""
-    from warpsph.phases import phase_scene
-
     out = copy.deepcopy(scene)
     if not out.phases:
         out.simulation.end_time = STEPS * scene.time_step

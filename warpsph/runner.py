@@ -134,7 +134,7 @@ class Run:
         """``--end-time``: the run stops at this simulated time [s] (None: after the last phase)."""
         self.end_time = scene.simulation.end_time if end_time is None else end_time
         self.ids = ParticleIds(scene)
-        if self.staged:
+        if self.staged and not resume:  # a resumed run's scene is the one checked at its start
             check_probes_reach(scene, phase_particles(scene))
         self.records: list[PhaseRecord] = []
         self.step_index = 0

@@ -111,9 +111,8 @@ class Solver:
         self.model = model
         self.config = SolverConfig.of(model.scene, damping, pore_pressure)
         c = self.config
-        self.fixed_pore_pressure = c.fixed_pore_pressure
         self.held_pressure: wp.array | None = None
-        """The pore pressures held with ``fixed_pore_pressure``: Bishop's χ p_w of a state's."""
+        """The pore pressures held with ``config.fixed_pore_pressure``: Bishop's χ p_w of a state's."""
         self.profile = profile
         self.stage_seconds: dict[str, float] = {}
         self.boundaries = Boundaries(model)
@@ -174,13 +173,13 @@ class Solver:
         self.real_fits = FitData(s, m.particle_capacity, dev)
         self.virtual_fits = FitData(s, m.virtual_capacity, dev)
         self.virtual_rate = wp.zeros(m.virtual_capacity, dtype=s.real, device=dev)
-        self.shifting = self.config.particle_shifting > 0.0
-        self.real_shift = wp.zeros(m.particle_capacity if self.shifting else 1, dtype=s.vec3, device=dev)
+        shifting = self.config.particle_shifting > 0.0
+        self.real_shift = wp.zeros(m.particle_capacity if shifting else 1, dtype=s.vec3, device=dev)
         self.real_motion = None
         """The real particles' velocity over the step [m/s] (``virtual_density = "real_motion"`` only)."""
         if self.config.virtual_density == "real_motion":
             self.real_motion = wp.zeros(m.particle_capacity, dtype=s.vec3, device=dev)
-        if self.shifting:
+        if shifting:
             self.virtual_shift = wp.zeros(m.virtual_capacity, dtype=s.vec3, device=dev)
             self.shift_real_to_real = self._neighbour_list(same_set=True)
             self.shift_virtual_to_virtual = self._neighbour_list(same_set=True)
@@ -321,12 +320,12 @@ class Solver:
             self.energy.add_boundary_work(si, so)
             return
         before = self._stress_pressure(si)
-        self.energy.add_boundary_work(si, so, before, before if self.fixed_pore_pressure else so.particle_pore_pressure)
+        self.energy.add_boundary_work(si, so, before, before if self.config.fixed_pore_pressure else so.particle_pore_pressure)
 
     def _stress_pressure(self, si: State):
         """The pore pressure the step's total stress carries: the state's, or with fixed pore pressures
         the excess of Bishop's χ p_w, computed from the first state stepped (the pressures do not change)."""
-        if not self.fixed_pore_pressure:
+        if not self.config.fixed_pore_pressure:
             return si.particle_pore_pressure
         if self.held_pressure is None:
             self.hold_pore_pressure(si)

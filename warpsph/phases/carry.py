@@ -52,8 +52,9 @@ def phase_particles(scene: Scene) -> list[np.ndarray]:
     """Each phase's particles (N_k,3) [m]: the lattice points of the bodies active in it."""
     out = []
     for index in range(len(scene.phases)):
-        sim = (staged := phase_scene(scene, index)).simulation
-        out.append(merge_unique([fill_body(b, sim.dx, sim.dim) for b in staged.bodies], sim.dx)[0])
+        staged = phase_scene(scene, index)
+        dx, dim = staged.simulation.dx, staged.simulation.dim
+        out.append(merge_unique([fill_body(b, dx, dim) for b in staged.bodies], dx)[0])
     return out
 
 

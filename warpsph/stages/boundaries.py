@@ -301,9 +301,6 @@ class Boundaries:
                [m.plane_kind, m.plane_position, self._on_plane_count, self._plane_sums, self.plane_position],
                m.device)  # fmt: skip
 
-    def _plane_args(self):
-        return [self.planes]
-
     def _water_args(self, material, pore):
         """Body force and pore-water arguments of the ghost and prescription kernels."""
         m = self.model
@@ -321,7 +318,7 @@ class Boundaries:
         m = self.model
         update_ghosts, *_ = _kernels(m.spec)
         launch(update_ghosts, m.particle_ghost_count,
-               [m.particle_count, m.particle_ghost_source, m.particle_ghost_planes, *self._plane_args(),
+               [m.particle_count, m.particle_ghost_source, m.particle_ghost_planes, self.planes,
                 *self._water_args(m.particle_material, pore), *self._drainage_args(), m.particle_origin, q, v, stress,
                 density],
                m.device)  # fmt: skip
@@ -331,7 +328,7 @@ class Boundaries:
         m = self.model
         update_ghosts, *_ = _kernels(m.spec)
         launch(update_ghosts, m.virtual_ghost_count,
-               [m.virtual_count, m.virtual_ghost_source, m.virtual_ghost_planes, *self._plane_args(),
+               [m.virtual_count, m.virtual_ghost_source, m.virtual_ghost_planes, self.planes,
                 *self._water_args(m.virtual_material, pore), *self._drainage_args(), m.virtual_origin, q, v, stress,
                 density],
                m.device)  # fmt: skip
@@ -348,8 +345,7 @@ class Boundaries:
         ``ledger`` (:mod:`warpsph.stages.energy`); rigid regions are :mod:`warpsph.stages.rigid`'s."""
         m = self.model
         _, on_planes, *_ = _kernels(m.spec)
-        plane_args = self._plane_args()
         launch(on_planes, m.constraint_count,
-               [m.constraint_particle, m.constraint_planes, plane_args[0], *plane_args[2:],
+               [m.constraint_particle, m.constraint_planes, self.planes,
                 *self._water_args(m.particle_material, pore), *self._drainage_args(), m.particle_origin, q, v, stress,
                 m.particle_mass, density, m.material_lambda, m.material_shear, ledger], m.device)  # fmt: skip

@@ -142,9 +142,6 @@ class PressureProjection:
                 image[a] = 0.0
         return image
 
-    def _plane_args(self):
-        return [self.planes]
-
     def update_ghosts(self, q, p, homogeneous: bool, virtual: bool = False, momentum: bool = False) -> None:
         """Pressure-parity values of the ghosts of the real (or virtual) set in ``p`` (with ``momentum``:
         the parity of a pressure increment in the velocity correction, see ``ghost_affine``)."""
@@ -157,9 +154,8 @@ class PressureProjection:
             n, src, chain, mat, count, origin = (m.particle_count, m.particle_ghost_source, m.particle_ghost_planes,
                                                  m.particle_material, m.particle_ghost_count,
                                                  m.particle_origin)  # fmt: skip
-        args = self._plane_args()
         launch(self.k["pressure_ghosts"], count,
-               [n, src, chain, q, origin, mat, *args, pw.material_water_density,
+               [n, src, chain, q, origin, mat, self.planes, pw.material_water_density,
                 pw.material_permeability, m.spec.vec3(*pw.gravity), wp.float64(pw.water_table), int(homogeneous),
                 int(momentum), p],
                m.device)  # fmt: skip
@@ -204,11 +200,10 @@ class PressureProjection:
             self._surface_checked = True
             self._warn_unstable_free_surface(si, dt)
             self._check_reservoirs(si)
-        args = self._plane_args()
         # the arguments of the pressure fits (``fitted_pressure``) ahead of each kernel's own
         fit_args = [h, n, nl.offsets, nl.indices, si.particle_q, m.particle_origin, m.particle_mass,
                     si.particle_density, m.particle_material, pw.material_permeability, pw.material_water_density,
-                    gravity, m.particle_ghost_source, m.particle_ghost_planes, *args,
+                    gravity, m.particle_ghost_source, m.particle_ghost_planes, self.planes,
                     wp.float64(pw.water_table)]  # fmt: skip
         if self.settings.stabilisation > 0.0 or self.settings.interior_stabilisation > 0.0:
             launch_rows(self.k["mark_near_surface"], n,
@@ -223,8 +218,8 @@ class PressureProjection:
                 m.particle_mass,
                 si.particle_density, m.particle_material, pw.material_permeability, pw.material_inv_biot,
                 pw.material_water_density, gravity, so.particle_v, self.div_v_star, self.p_old,
-                m.particle_ghost_source, m.particle_ghost_planes, *args, wp.float64(pw.water_table), self.dirichlet,
-                self.value, self.face_factor, self.momentum_image, rf.smallest_eigenvalue,
+                m.particle_ghost_source, m.particle_ghost_planes, self.planes, wp.float64(pw.water_table),
+                self.dirichlet, self.value, self.face_factor, self.momentum_image, rf.smallest_eigenvalue,
                 real(self.exterior_threshold), wp.float64(self.lattice_sum), self.roughness, self.near_surface,
                 wp.float64(self.settings.stabilisation), wp.float64(self.settings.interior_stabilisation),
                 self.weight, self.column, self.diag, self.rhs], dev)  # fmt: skip
