@@ -50,8 +50,8 @@ def factor_of_safety_falls(scene_path: Path, out: Path, before: str, after: str)
     assert first["outcome"] == second["outcome"] == "converged"
     print(f"\nfactor of safety in {before} {first['criterion']:.3f}, in {after} {second['criterion']:.3f}")
     assert second["criterion"] < first["criterion"]
-    stands = {factor for factor, converged, *_ in first["trials"] if converged}
-    fails = {factor for factor, converged, *_ in second["trials"] if not converged}
+    stands = {factor for factor, outcome, *_ in first["trials"] if outcome == 1}
+    fails = {factor for factor, outcome, *_ in second["trials"] if outcome == 0}
     assert stands & fails
     return warpsph.load_results(out / "results.h5"), first["criterion"], second["criterion"]
 
@@ -69,7 +69,7 @@ def factor_search(out: Path, tolerance: float):
     phase = results.phases[-1]
     trials, fos = phase["trials"], phase["criterion"]
     stood, failed = trials[trials[:, 1] == 1, 0], trials[trials[:, 1] == 0, 0]
-    print(f"\nfactor of safety {fos:.4f} ± {tolerance}; trials (factor, converged, ratio, steps, moved):\n{trials}")
+    print(f"\nfactor of safety {fos:.4f} ± {tolerance}; trials (factor, outcome, ratio, steps, moved, energy, why):\n{trials}")
     assert phase["outcome"] == "converged"
     assert stood.max() < fos < failed.min() and failed.min() - stood.max() <= 2 * tolerance + 1e-12
     factors = [results.frame_attrs(k).get("factor") for k in range(len(results.times))]

@@ -20,7 +20,7 @@ def test_a_rapid_drawdown_lowers_the_upstream_slopes_factor_of_safety(tmp_path):
     assert drawn < full - 0.2
     index = {name: i for i, name in enumerate(p["name"] for p in results.phases)}
     first_failed = next(i for i in range(len(results.times)) if results.frame_phases[i] == index["drawdown_safety"]
-                        and results.frame_attrs(i).get("converged") == 0)  # fmt: skip
+                        and results.frame_attrs(i).get("outcome") == 0)  # fmt: skip
     frame = results.frame(first_failed)
     moved = np.linalg.norm(frame["displacement"], axis=1)
     sliding = moved > 0.5 * moved.max()

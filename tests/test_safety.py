@@ -23,6 +23,8 @@ from conftest import factor_search
 from warpsph.validation.safety import strength_reduction_phases, undrained_clay
 from warpsph import Material, Probe, Region, Scene, SceneError
 from warpsph.phases import FactorSearch, reduced_strength
+from warpsph.phases.base import CHECK_EVERY
+from warpsph.phases.safety import CAPPED, COLLAPSING, DISPLACED, TrialJudge
 from warpsph.scene import Phase
 
 G = 9.81
@@ -69,6 +71,19 @@ def test_vertical_cut_factor_of_safety_refined(tmp_path):
     """Δx = 0.2 m, trials of 5000 steps, to ± 0.01 (measured 1.951 ± 0.006, about 2 min)."""
     warpsph.run_scene(vertical_cut(0.2, strength_reduction_phases(5000, 0.01)), tmp_path, device="cpu")
     check_cut(tmp_path, 0.01)
+
+
+@pytest.mark.slow
+def test_doubling_the_trials_cap_moves_the_factor_by_less_than_its_resolution(cut, tmp_path):
+    """Trials of 8000 steps in place of 4000 (about 2 min): measured 1.957 ± 0.012 at both; the trial
+    at F = 2.0625 collapsing at 4000 steps reaches the failure displacement at 10 890."""
+    summary, _ = cut
+    doubled = warpsph.run_scene(vertical_cut(0.25, strength_reduction_phases(8000, 0.02)), tmp_path, device="cpu")
+    first, second = summary.phases[-1], doubled.phases[-1]
+    print(f"\nF = {first['criterion']:.4f} ± {first['resolution']:.4f} at 4000 steps, "
+          f"{second['criterion']:.4f} ± {second['resolution']:.4f} at 8000")
+    assert second["outcome"] == "converged"
+    assert abs(second["criterion"] - first["criterion"]) < min(first["resolution"], second["resolution"])
 
 
 def test_strength_reduction_divides_c_and_tan_phi():
@@ -121,6 +136,73 @@ def test_factor_search_keeps_the_bracket_below_the_first_failure():
     for factor, stands in zip(search.factors, (True, False, True)):  # 1.0 stands, 1.5 fails, 2.25 stands
         search.record(factor, stands)
     assert (search.low, search.high) == (1.0, 1.5) and search.factors == [1.125, 1.25, 1.375]
+
+
+@pytest.mark.parametrize("fos, width", [(1.234, 1), (1.234, 4), (0.7, 1), (3.1, 3)])
+def test_factor_search_counts_undecided_trials_neither_way(fos, width):
+    """Trials within 0.03 of the factor are undecided (they creep at their caps): the search still ends,
+    brackets the factor between a trial that stood and one that failed, and says how wide the bracket
+    stayed; an undecided trial is never taken as failed."""
+    search, rounds = FactorSearch(0.01, 10.0, width=width), 0
+    while search.factors and rounds < 40:
+        rounds += 1
+        for factor in search.factors:
+            search.record(factor, None if abs(factor - fos) < 0.03 else factor < fos)
+    assert not search.factors and search.bracketed
+    assert search.low < fos < search.high and search.low <= search.result <= search.high
+    assert search.resolution == pytest.approx(0.5 * (search.high - search.low))
+    assert 0.01 <= search.resolution <= 0.03 + 0.02  # the undecided band, plus a tolerance each side
+    assert all(abs(f - fos) < 0.03 for f in search.state["undecided"]) and search.state["undecided"]
+
+
+def test_factor_search_without_undecided_trials_keeps_the_tolerance():
+    search, _ = searched(1.234, 1)
+    assert search.state["undecided"] == [] and search.resolution <= 0.01
+
+
+class Positions:
+    """Stands for a trial's particle positions (``numpy()``) in :class:`TrialJudge`."""
+
+    def __init__(self, moved: float):
+        self.moved = moved
+
+    def numpy(self):
+        return np.array([[0.0, 0.0, 0.0], [self.moved, 0.0, 0.0]])
+
+
+def judged(displacement, energy, cap: int = 400, limit: float = 0.1) -> tuple[TrialJudge, int]:
+    """A judge fed the histories ``displacement(k)`` [m] and ``energy(k)`` [J] every check; the judge and
+    the step at which it ended the trial (-1: not within 10 caps)."""
+    judge = TrialJudge(np.zeros((2, 3)), limit, cap)
+    for k in range(CHECK_EVERY, 10 * cap + 1, CHECK_EVERY):
+        if judge(Positions(displacement(k)), k, energy(k)):
+            return judge, k
+    return judge, -1
+
+
+def test_a_trial_that_creeps_on_at_its_cap_fails_as_collapsing():
+    judge, k = judged(lambda k: 1e-5 * k, lambda k: 0.2)
+    assert (k, judge.why) == (400, COLLAPSING)
+
+
+def test_a_trial_that_reaches_the_failure_displacement_fails_there():
+    judge, k = judged(lambda k: 1e-3 * k, lambda k: 0.2)
+    assert (k, judge.why) == (110, DISPLACED)
+
+
+def test_a_trial_still_slowing_down_is_extended_then_undecided():
+    """A creep that decays over 300 steps is still slowing down at the cap of 400: extended twice, then
+    undecided (never failed); one that keeps a constant speed after slowing at first is collapsing at
+    the first extended cap."""
+    judge, k = judged(lambda k: 0.02 * (1 - np.exp(-k / 300)), lambda k: np.exp(-k / 150))
+    assert (k, judge.why) == (1200, CAPPED)
+    judge, k = judged(lambda k: 0.02 * (1 - np.exp(-k / 50)) + 2e-6 * k, lambda k: np.exp(-k / 25) + 1e-3)
+    assert (k, judge.why) == (800, COLLAPSING)
+
+
+def test_a_trial_whose_energy_falls_while_it_moves_is_not_collapsing():
+    judge, k = judged(lambda k: 1e-5 * k, lambda k: np.exp(-k / 200))
+    assert (k, judge.why) == (1200, CAPPED)
 
 
 @pytest.mark.parametrize("change, key, words", [

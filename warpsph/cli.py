@@ -105,6 +105,7 @@ def _run(args) -> int:
         raise SceneError("--end-time", f"must be > 0, got {args.end_time}")
     from tqdm import tqdm
 
+    from warpsph.phases.safety import trial_lines
     from warpsph.runner import Run
 
     out = args.out or Path("runs") / scene.name
@@ -151,12 +152,11 @@ def _run(args) -> int:
                          "dynamic": "kinetic energy / peak"}.get(p["kind"])  # fmt: skip
             reached = f", {criterion} {p['criterion']:.4g}" if criterion and p["criterion"] == p["criterion"] else ""
             if p["kind"] == "safety" and p["outcome"] == "converged":
-                reached += f" ± {run.phase.factor_tolerance:g}"
+                reached += f" ± {p['resolution']:.2g}"
             bar.write(f"phase {p['name']} ({p['kind']}): {p['outcome']} after {p['steps']} steps{reached}",
                       file=sys.stdout)  # fmt: skip
-            for factor, stood, ratio, steps, moved in p.get("trials", []):
-                bar.write(f"  trial F = {factor:.4g}: {'stands' if stood else 'fails'} (ratio {ratio:.3g} after "
-                          f"{steps} steps, largest displacement {moved:.3g} m)", file=sys.stdout)  # fmt: skip
+            for line in trial_lines(p.get("trials", []), scene.simulation.dim):
+                bar.write(line, file=sys.stdout)
         where = f"phase {p['name']}: " if run.staged else ""
         for line in p["energy_warnings"]:  # the energy balance's checks (docs/method.md, Energy balance)
             bar.write(f"warpsph: warning: {where}{line}", file=sys.stderr)

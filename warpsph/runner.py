@@ -79,7 +79,7 @@ class RunSummary:
     """What stopped a run that did not finish (an interruption, an instability, an output error),
     and where its checkpoint is."""
     phases: list = field(default_factory=list)
-    """One {name, kind, outcome, criterion, steps, trials, energy, energy_warnings} per phase run
+    """One {name, kind, outcome, criterion, resolution, steps, trials, energy, energy_warnings} per phase run
     (energy: the balance at the phase's end, docs/method.md *Energy balance*)."""
 
     @property
@@ -510,8 +510,8 @@ class Run:
                 outcome = self.calculation.calculate(progress)
                 record.last_step, record.end_time, record.outcome = self.step_index, self.time, outcome
                 self.summary.phases.append({"name": record.name, "kind": record.kind, "outcome": outcome,
-                                            "criterion": record.criterion, "steps": record.last_step
-                                            - record.first_step, "trials": record.trials,
+                                            "criterion": record.criterion, "resolution": record.resolution,
+                                            "steps": record.last_step - record.first_step, "trials": record.trials,
                                             **self._energy_report()})  # fmt: skip
                 if self.staged:
                     self.results.write_phases([asdict(r) for r in self.records])

@@ -15,6 +15,8 @@ import numpy as np
 
 FORMAT = "warpsph-results"
 FORMAT_VERSION = 1
+TRIAL_COLUMNS = 7
+"""A safety trial's row in ``/phases/trials/<name>``: factor, outcome, ratio, steps, displacement, kinetic energy, why."""
 _SERIES_COLUMNS = {"step": np.int64, "time": np.float64, "value": np.float64}
 
 
@@ -111,9 +113,8 @@ class ResultsWriter:
 
     def write_phases(self, records: list[dict]) -> None:
         """Replace ``/phases``: one row per phase, columns ``name``, ``kind``, ``outcome`` (strings),
-        ``first_step``, ``last_step`` (int64), ``start_time``, ``end_time``, ``criterion`` (float64),
-        and a safety phase's trials as ``/phases/trials/<name>``, (T,5) float64 rows of factor,
-        converged (1 or 0), final unbalanced-force ratio, steps and the largest displacement [m]."""
+        ``first_step``, ``last_step`` (int64), ``start_time``, ``end_time``, ``criterion``, ``resolution``
+        (float64), and a safety phase's trials as ``/phases/trials/<name>``, (T,7) float64 rows (docs/output.md)."""
         self._check_open()
         with _open(self.path, "r+") as f:
             if "phases" in f:
@@ -124,12 +125,12 @@ class ResultsWriter:
                 group.create_dataset(column, data=np.array([r[column] for r in records], dtype=object), dtype=text)
             for column in ("first_step", "last_step"):
                 group.create_dataset(column, data=np.array([r[column] for r in records], dtype=np.int64))
-            for column in ("start_time", "end_time", "criterion"):
+            for column in ("start_time", "end_time", "criterion", "resolution"):
                 group.create_dataset(column, data=np.array([r[column] for r in records], dtype=np.float64))
             trials = group.create_group("trials")
             for r in records:
                 if r.get("trials"):
-                    trials.create_dataset(r["name"], data=np.array(r["trials"], dtype=np.float64).reshape(-1, 5))
+                    trials.create_dataset(r["name"], data=np.array(r["trials"], dtype=np.float64).reshape(-1, TRIAL_COLUMNS))
 
     def append_series(self, name: str, step: int, time: float, value: float) -> None:
         """Buffer one sample of scalar series ``name`` (time [s]); written at the next frame or close()."""
@@ -240,8 +241,8 @@ class Results:
     @property
     def phases(self) -> list[dict]:
         """The phases run, in order: dicts with name, kind, outcome, first_step, last_step, start_time,
-        end_time, criterion and trials (a safety phase's (T,5) array of factor, converged, final
-        ratio and steps; (0,4) for other kinds); [] for a run without phases."""
+        end_time, criterion, resolution and trials (a safety phase's (T,7) array, docs/output.md; (0,7)
+        for other kinds); [] for a run without phases."""
         with self._open() as f:
             if "phases" not in f:
                 return []
@@ -249,7 +250,7 @@ class Results:
             trials = g["trials"] if "trials" in g else {}
             rows = [{k: _plain(g[k][i]) for k in g if k != "trials"} for i in range(len(g["name"]))]
             for row in rows:
-                row["trials"] = trials[row["name"]][()] if row["name"] in trials else np.zeros((0, 5))
+                row["trials"] = trials[row["name"]][()] if row["name"] in trials else np.zeros((0, TRIAL_COLUMNS))
             return rows
 
     @property

@@ -21,6 +21,8 @@ class Equilibrium(Calculation):
     def __init__(self, run, phase):
         super().__init__(run, phase)
         self._load_scale = None  # the phase's constant parts of the applied force (applied_force)
+        self.kinetic_energy = math.nan
+        """The kinetic energy at the last check [J, J/m in 2D] (the mean over the steps since the one before)."""
 
     def calculate(self, progress) -> str:
         converged, ratio = self.equilibrate(progress, self.run.phase_start_step)
@@ -50,13 +52,12 @@ class Equilibrium(Calculation):
                   if ld.kind == "force"]  # fmt: skip
         return weight, loads
 
-    def equilibrate(self, progress, first: int, output: bool = True,
-                    start: tuple[np.ndarray, float] | None = None) -> tuple[bool, float]:  # fmt: skip
+    def equilibrate(self, progress, first: int, output: bool = True, judge=None) -> tuple[bool, float]:
         """Damped steps from step ``first`` until the unbalanced-force ratio falls below the phase's
         tolerance (True) or its step cap is reached (False); also the last ratio. ``output``: write
         frames and checkpoints at their cadence (a safety trial writes its last frame only).
-        ``start`` = (positions (N,3) [m], limit [m]): also False once a particle has moved farther
-        than the limit from its start position (a safety trial's failure displacement)."""
+        ``judge(positions, k, kinetic energy)``: in place of the step cap, called at each check that has
+        not converged, True where the steps end (a safety trial's :class:`~warpsph.phases.safety.TrialJudge`)."""
         run, phase = self.run, self.phase
         frame_every, ck_every = run.cadence(True)
         ratio = run.loop.get("ratio", math.inf)
@@ -66,15 +67,14 @@ class Equilibrium(Calculation):
             k = run.step_index - first
             converged = capped = False
             if k % CHECK_EVERY == 0:
-                unbalanced, energy = run.solver.damping.read()
+                unbalanced, self.kinetic_energy = run.solver.damping.read()
                 ratio = unbalanced / max(self.applied_force(), 1e-300)
                 run.loop["ratio"] = ratio
                 run.results.append_series("unbalanced_force_ratio", run.step_index, run.time, ratio)
-                run.results.append_series("kinetic_energy", run.step_index, run.time, energy)
+                run.results.append_series("kinetic_energy", run.step_index, run.time, self.kinetic_energy)
                 converged = ratio < phase.tolerance
-                capped = not converged and k >= phase.max_steps
-                if start is not None and not converged:
-                    capped = capped or largest_displacement(run.state.particle_q, start[0]) > start[1]
+                if not converged:
+                    capped = k >= phase.max_steps if judge is None else judge(run.state.particle_q, k, self.kinetic_energy)
             stopped = stop is not None and run.step_index >= stop and k % CHECK_EVERY == 0
             if output:
                 run.output(converged or capped or stopped, frame_every, ck_every)

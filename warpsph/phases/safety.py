@@ -10,30 +10,115 @@ import tempfile
 from pathlib import Path
 from typing import NamedTuple
 
+import numpy as np
+
 from warpsph.builder import plastic_materials
 from warpsph.cluster import dask_client
 from warpsph.environment import init_warp
 from warpsph.errors import SimulationError
 from warpsph.io.run_directory import CHECKPOINT
-from warpsph.phases.base import Stopped
+from warpsph.phases.base import CHECK_EVERY, Stopped
 from warpsph.phases.equilibrium import Equilibrium, largest_displacement
 from warpsph.phases.search import FactorSearch, reduced_strength
 from warpsph.phases.staging import CONVERGED, NOT_CONVERGED
 from warpsph.scene import FAILURE_DISPLACEMENT
 
 
+STANDS, FAILS, UNDECIDED = 1, 0, -1
+"""A trial's outcome, as the second column of ``/phases/trials/<name>`` and the frame attribute ``outcome``."""
+CONVERGED_WHY, DISPLACED, COLLAPSING, RAN_AWAY, CAPPED = range(5)
+"""Why a trial stands, fails or is undecided (the last column of ``/phases/trials/<name>``), :data:`WHY`."""
+WHY = ("its ratio fell below the tolerance", "it moved past the failure displacement",
+       "collapsing: its displacement and kinetic energy stopped slowing down", "it ran away (the run guard stopped it)",
+       "still slowing down at its extended cap")
+"""What each of the codes above says, in a trial's line of the run's output."""
+
+
 class TrialOutcome(NamedTuple):
     """What a safety trial did (:meth:`SafetyAnalysis.trial`)."""
 
     factor: float
-    converged: bool
+    outcome: int
+    """:data:`STANDS`, :data:`FAILS` or :data:`UNDECIDED`."""
+    why: int
+    """:data:`CONVERGED_WHY`, :data:`DISPLACED`, :data:`COLLAPSING`, :data:`RAN_AWAY` or :data:`CAPPED`."""
     ratio: float
     """The final unbalanced-force ratio (inf where the run guard stopped the trial)."""
     steps: int
     moved: float
     """The largest displacement from the phase's start [m] (inf where the run guard stopped the trial)."""
+    energy: float
+    """The kinetic energy at its last check [J, J/m in 2D] (inf where the run guard stopped the trial)."""
     frame: object
     """The :class:`~warpsph.runner.FrameContent` of its last state, or None."""
+
+    @property
+    def stands(self) -> bool | None:
+        """True where it stood, False where it failed, None where it is undecided."""
+        return None if self.outcome == UNDECIDED else self.outcome == STANDS
+
+    @property
+    def row(self) -> list[float]:
+        """Its row of ``/phases/trials/<name>``."""
+        return [self.factor, self.outcome, self.ratio, self.steps, self.moved, self.energy, self.why]
+
+
+def trial_lines(trials, dim: int) -> list[str]:
+    """One line per row of a safety phase's ``trials`` (:attr:`TrialOutcome.row`) in a ``dim``-D run: the
+    factor, the outcome and why, with the ratio, kinetic energy, displacement and steps it was decided on."""
+    unit, lines = {1: "J/m²", 2: "J/m"}.get(dim, "J"), []
+    for factor, outcome, ratio, steps, moved, energy, why in trials:
+        said = {STANDS: "stands", FAILS: "fails", UNDECIDED: "undecided"}[int(outcome)]
+        lines.append(f"  trial F = {factor:.4g}: {said}, {WHY[int(why)]} (ratio {ratio:.3g}, kinetic energy "
+                     f"{energy:.3g} {unit}, largest displacement {moved:.3g} m, {int(steps)} steps)")  # fmt: skip
+    return lines
+
+
+class TrialJudge:
+    """Decides, at each check of a safety trial that has not converged, whether it has failed or must go
+    on (docs/scenes.md, *Phases*): it fails once a particle has moved farther than ``limit`` [m] from
+    ``start`` (N,3), or when, at its step cap ``cap``, it is collapsing: over the cap's last quarter the
+    largest displacement grew by at least ``SLOWING`` times what it grew over the quarter before (and by
+    more than ``MOVING`` of the limit), while the mean kinetic energy stayed at ``SLOWING`` times the
+    quarter before's or more. A trial that is still slowing down at its cap is extended by the cap, at
+    most ``EXTENSIONS`` times; one that is slowing down at the last is undecided (:attr:`why`)."""
+
+    SLOWING = 0.95
+    MOVING = 1e-3
+    EXTENSIONS = 2
+
+    def __init__(self, start: np.ndarray, limit: float, cap: int):
+        self.start, self.limit, self.cap = start, limit, cap
+        self.quarter = max(1, cap // (4 * CHECK_EVERY))  # checks per quarter of the cap
+        self.moved: list[float] = []
+        self.energy: list[float] = []
+        self.decision = cap  # the step of the next look at the cap
+        self.why = CAPPED
+
+    def __call__(self, positions, k: int, energy: float) -> bool:
+        """True where the trial at step ``k`` of its own (``positions``, kinetic energy ``energy``) ends."""
+        self.moved.append(largest_displacement(positions, self.start))
+        self.energy.append(energy)
+        if self.moved[-1] > self.limit:
+            self.why = DISPLACED
+            return True
+        if k < self.decision:
+            return False
+        if self.collapsing():
+            self.why = COLLAPSING
+            return True
+        self.decision += self.cap
+        return k >= self.cap * (1 + self.EXTENSIONS)
+
+    def collapsing(self) -> bool:
+        """Whether the displacement and the kinetic energy have stopped slowing down (over the last two
+        quarters of the cap)."""
+        n = self.quarter
+        if len(self.moved) < 2 * n + 1:
+            return False
+        before, last = self.moved[-1 - n] - self.moved[-1 - 2 * n], self.moved[-1] - self.moved[-1 - n]
+        energy_before, energy_last = np.mean(self.energy[-2 * n : -n]), np.mean(self.energy[-n:])
+        return last > self.MOVING * self.limit and last >= self.SLOWING * before and energy_last >= self.SLOWING * energy_before
 
 
 class SafetyAnalysis(Equilibrium):
@@ -62,14 +147,13 @@ class SafetyAnalysis(Equilibrium):
                 else:
                     outcomes = self._remote_trials(client, search.factors)
                 for outcome in outcomes:
-                    record.trials.append([outcome.factor, int(outcome.converged), outcome.ratio, outcome.steps,
-                                          outcome.moved])  # fmt: skip
+                    record.trials.append(outcome.row)
                     run.step_index += outcome.steps
                     if client is not None:
                         run.summary.steps += outcome.steps
                     if outcome.frame is not None:
-                        run.write_frame(outcome.frame, factor=outcome.factor, converged=int(outcome.converged))
-                    search.record(outcome.factor, outcome.converged)
+                        run.write_frame(outcome.frame, factor=outcome.factor, outcome=outcome.outcome)
+                    search.record(outcome.factor, outcome.stands)
                 run.checkpoint()
                 if progress is not None:
                     progress(run.time, run.step_index)
@@ -77,7 +161,7 @@ class SafetyAnalysis(Equilibrium):
                 if search.factors and stop is not None and run.step_index >= stop:
                     raise Stopped()
                 run.stop_if_interrupted(checkpoint=False)
-        record.criterion = search.result
+        record.criterion, record.resolution = search.result, search.resolution
         return CONVERGED if search.bracketed else NOT_CONVERGED
 
     def _remote_trials(self, client, factors: list[float]) -> list[TrialOutcome]:
@@ -99,6 +183,7 @@ class SafetyAnalysis(Equilibrium):
         spec, device = run.model.spec, run.model.device
         positions = start["particle_q"][: run.model.particle_count]
         limit = phase.failure_displacement or FAILURE_DISPLACEMENT * run.height(positions)
+        judge = TrialJudge(positions, limit, phase.max_steps)
         run.model.material_plasticity = plastic_materials(spec, [reduced_strength(m, factor) for m in materials],
                                                           device)  # fmt: skip
         first = run.step_index
@@ -106,10 +191,12 @@ class SafetyAnalysis(Equilibrium):
         run.start_energy()
         run.clear_guards()
         try:
-            converged, ratio = self.equilibrate(progress, first, output=False, start=(positions, limit))
-            moved = largest_displacement(run.state.particle_q, positions)
+            converged, ratio = self.equilibrate(progress, first, output=False, judge=judge)
+            moved, energy = largest_displacement(run.state.particle_q, positions), self.kinetic_energy
+            why = CONVERGED_WHY if converged else judge.why
         except SimulationError:
-            converged, ratio, moved = False, math.inf, math.inf
+            ratio, moved, energy, why = math.inf, math.inf, math.inf, RAN_AWAY
+        outcome = STANDS if why == CONVERGED_WHY else UNDECIDED if why == CAPPED else FAILS
         frame = run.frame()._replace(balance=run.balance_since_start()) if math.isfinite(moved) else None
         steps = run.step_index - first
         for name, arr in run.state.arrays().items():
@@ -119,7 +206,7 @@ class SafetyAnalysis(Equilibrium):
         run.start_energy()
         run.clear_guards()
         run.model.material_plasticity = plastic_materials(spec, materials, device)
-        return TrialOutcome(factor, converged, ratio, steps, moved, frame)
+        return TrialOutcome(factor, outcome, why, ratio, steps, moved, energy, frame)
 
 
 def remote_trial(run_type: type, scene, checkpoint: bytes, factor: float, device: str | None,

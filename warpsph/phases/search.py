@@ -26,7 +26,10 @@ class FactorSearch:
     once: from F = 1 the factors grow (or shrink) by ``STEP`` until one trial stands and another fails,
     then the bracket between the largest factor that stood below the smallest that failed is cut into
     ``width`` + 1 equal parts until it is within ± ``tolerance``; the factor of safety is the bracket's
-    middle. With ``width`` 1 the search is a bisection. Its state is plain data, kept in checkpoints."""
+    middle. With ``width`` 1 the search is a bisection. An undecided trial counts neither way: it splits
+    the bracket, the widest part is cut next, and the search ends once every part is within
+    ± ``tolerance`` (:attr:`resolution` then says how wide the bracket stayed). Its state is plain
+    data, kept in checkpoints."""
 
     STEP = 1.5
     SMALLEST = 0.05
@@ -34,6 +37,7 @@ class FactorSearch:
     def __init__(self, tolerance: float, largest: float, state: dict | None = None, width: int = 1):
         self.tolerance, self.largest, self.width = tolerance, largest, max(1, width)
         self.state = state or {"stood": [], "failed": [], "factors": self._stepped(1.0, up=True, first=0)}
+        self.state.setdefault("undecided", [])
 
     @property
     def factors(self) -> list[float]:
@@ -45,12 +49,12 @@ class FactorSearch:
         """The next trial's factor (None: the search is over)."""
         return self.state["factors"][0] if self.state["factors"] else None
 
-    def record(self, factor: float, stands: bool) -> None:
-        """Take the outcome of the trial at ``factor``, one of :attr:`factors`; the round recorded, choose
-        the next."""
+    def record(self, factor: float, stands: bool | None) -> None:
+        """Take the outcome of the trial at ``factor``, one of :attr:`factors`: it stood (True), failed
+        (False) or is undecided (None); the round recorded, choose the next."""
         s = self.state
         s["factors"].remove(factor)
-        s["stood" if stands else "failed"].append(factor)
+        s["undecided" if stands is None else "stood" if stands else "failed"].append(factor)
         if not s["factors"]:
             s["factors"] = self._next_round()
 
@@ -73,18 +77,28 @@ class FactorSearch:
                        for k in range(first, first + self.width)})  # fmt: skip
 
     def _next_round(self) -> list[float]:
-        low, high = self.low, self.high
+        low, high, undecided = self.low, self.high, self.state["undecided"]
         if high is None:
-            return [] if low >= self.largest else self._stepped(low, up=True)
+            base = max(self.state["stood"] + undecided)
+            return [] if base >= self.largest else self._stepped(base, up=True)
         if low is None:
-            return [] if high <= self.SMALLEST else self._stepped(high, up=False)
-        if high - low <= 2.0 * self.tolerance:
+            base = min(self.state["failed"] + undecided)
+            return [] if base <= self.SMALLEST else self._stepped(base, up=False)
+        ends = sorted({low, high, *(f for f in undecided if low < f < high)})
+        a, b = max(zip(ends, ends[1:]), key=lambda part: part[1] - part[0])
+        if b - a <= 2.0 * self.tolerance:
             return []
-        return [low + (high - low) * i / (self.width + 1) for i in range(1, self.width + 1)]
+        return [a + (b - a) * i / (self.width + 1) for i in range(1, self.width + 1)]
 
     @property
     def bracketed(self) -> bool:
         return self.low is not None and self.high is not None
+
+    @property
+    def resolution(self) -> float:
+        """Half the bracket's width: ``tolerance`` or less unless undecided trials kept it wider (nan
+        without a bracket)."""
+        return 0.5 * (self.high - self.low) if self.bracketed else math.nan
 
     @property
     def result(self) -> float:

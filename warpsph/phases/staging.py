@@ -38,9 +38,10 @@ class PhaseRecord:
     criterion: float = float("nan")
     """The criterion reached: the final unbalanced-force ratio (equilibrium), the factor of safety
     (safety) or the final over peak kinetic energy (dynamic with ``at_rest``)."""
+    resolution: float = float("nan")
+    """Safety: the factor of safety's ± (half the final bracket's width)."""
     trials: list = field(default_factory=list)
-    """Safety: one [factor, converged (1 or 0), final unbalanced-force ratio, steps, largest displacement
-    [m]] per trial."""
+    """Safety: one row per trial (:attr:`~warpsph.phases.safety.TrialOutcome.row`)."""
 
 
 def default_phases(scene: Scene) -> list[Phase]:

@@ -12,6 +12,7 @@ from pathlib import Path
 import numpy as np
 
 import warpsph
+from warpsph.io.results import TRIAL_COLUMNS
 from warpsph.validation.report import Check, Context, Outcome, case, figure, shipped_scene
 
 GRIFFITHS_LANE, BISHOP = 1.4, 1.38
@@ -71,7 +72,8 @@ class Search:
     tolerance: float
     max_steps: int
     trials: np.ndarray
-    """(T, 5): factor, stood (1) or failed (0), final unbalanced-force ratio, steps, largest displacement [m]."""
+    """(T, 7): the rows of ``/phases/trials/<name>`` (docs/output.md): factor, outcome (1 stood, 0 failed, −1
+    undecided), final unbalanced-force ratio, steps, largest displacement [m], kinetic energy, why."""
     factor: float
     """The weakest failing trial's factor (nan: none failed)."""
     position: np.ndarray
@@ -97,7 +99,7 @@ def search(scene, out: Path, device: str) -> Search:
     summary = warpsph.run_scene(scene, out, device=device, overwrite=True)
     results = warpsph.load_results(out / "results.h5")
     phase = scene.phases[-1]
-    trials = np.asarray(summary.phases[-1]["trials"], dtype=float).reshape(-1, 5)
+    trials = np.asarray(summary.phases[-1]["trials"], dtype=float).reshape(-1, TRIAL_COLUMNS)
     failed = trials[trials[:, 1] == 0, 0]
     factor = failed.min() if len(failed) else math.nan
     k = next((k for k in range(len(results)) if results.frame_attrs(k).get("factor") == factor), -1)
@@ -127,14 +129,18 @@ def draw(context: Context, name: str, found: Search, outline, reference: float, 
     left.set(aspect="equal", xlabel="x [m]", ylabel="y [m]", title=f"mechanism: trial F = {found.factor:.3f} (failed)")
     left.legend(loc="upper left", fontsize=8, frameon=False)
     n = np.arange(1, len(found.trials) + 1)
-    stood = found.trials[:, 1] == 1
+    stood, failed = found.trials[:, 1] == 1, found.trials[:, 1] == 0
     right.axhspan(reference * (1 - tolerance), reference * (1 + tolerance), color="tab:blue", alpha=0.15,
                   label=f"{label}, {reference:.4g} ± {tolerance:.0%}")  # fmt: skip
     right.axhline(reference, color="tab:blue", lw=1)
     right.axhline(found.fos, color="k", ls="--", lw=1, label=f"factor of safety found, {found.fos:.3f}")
     right.plot(n, found.trials[:, 0], color="0.7", lw=0.8, zorder=1)
     right.scatter(n[stood], found.trials[stood, 0], marker="o", color="tab:green", label="stood", zorder=2)
-    right.scatter(n[~stood], found.trials[~stood, 0], marker="x", color="tab:red", label="failed", zorder=2)
+    right.scatter(n[failed], found.trials[failed, 0], marker="x", color="tab:red", label="failed", zorder=2)
+    undecided = ~(stood | failed)
+    if undecided.any():
+        right.scatter(n[undecided], found.trials[undecided, 0], marker="s", color="tab:orange", label="undecided",
+                      zorder=2)  # fmt: skip
     right.set(xlabel="trial", ylabel="trial factor F [-]", title="strength-reduction search", xticks=n)
     right.legend(fontsize=8, loc="upper left", bbox_to_anchor=(1.02, 1.0))
     return context.save(fig, name)
