@@ -105,7 +105,7 @@ def _run(args) -> int:
         raise SceneError("--end-time", f"must be > 0, got {args.end_time}")
     from tqdm import tqdm
 
-    from warpsph.phases.safety import trial_lines
+    from warpsph.phases.safety import limit_equilibrium_line, trial_lines
     from warpsph.runner import Run
 
     out = args.out or Path("runs") / scene.name
@@ -155,8 +155,10 @@ def _run(args) -> int:
                 reached += f" ± {p['resolution']:.2g}"
             bar.write(f"phase {p['name']} ({p['kind']}): {p['outcome']} after {p['steps']} steps{reached}",
                       file=sys.stdout)  # fmt: skip
-            for line in trial_lines(p.get("trials", []), scene.simulation.dim):
-                bar.write(line, file=sys.stdout)
+            for line in [limit_equilibrium_line(p.get("limit_equilibrium")),
+                         *trial_lines(p.get("trials", []), scene.simulation.dim)]:
+                if line:
+                    bar.write(line, file=sys.stdout)
         where = f"phase {p['name']}: " if run.staged else ""
         for line in p["energy_warnings"]:  # the energy balance's checks (docs/method.md, Energy balance)
             bar.write(f"warpsph: warning: {where}{line}", file=sys.stderr)

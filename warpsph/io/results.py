@@ -114,7 +114,7 @@ class ResultsWriter:
     def write_phases(self, records: list[dict]) -> None:
         """Replace ``/phases``: one row per phase, columns ``name``, ``kind``, ``outcome`` (strings),
         ``first_step``, ``last_step`` (int64), ``start_time``, ``end_time``, ``criterion``, ``resolution``
-        (float64), and a safety phase's trials as ``/phases/trials/<name>``, (T,7) float64 rows (docs/output.md)."""
+        (float64), ``limit_equilibrium`` (P,5), and a safety phase's trials as ``/phases/trials/<name>``, (T,7) float64 rows (docs/output.md)."""
         self._check_open()
         with _open(self.path, "r+") as f:
             if "phases" in f:
@@ -127,6 +127,8 @@ class ResultsWriter:
                 group.create_dataset(column, data=np.array([r[column] for r in records], dtype=np.int64))
             for column in ("start_time", "end_time", "criterion", "resolution"):
                 group.create_dataset(column, data=np.array([r[column] for r in records], dtype=np.float64))
+            rows = [r["limit_equilibrium"] or [np.nan] * 5 for r in records]
+            group.create_dataset("limit_equilibrium", data=np.array(rows, dtype=np.float64).reshape(-1, 5))
             trials = group.create_group("trials")
             for r in records:
                 if r.get("trials"):
@@ -241,14 +243,15 @@ class Results:
     @property
     def phases(self) -> list[dict]:
         """The phases run, in order: dicts with name, kind, outcome, first_step, last_step, start_time,
-        end_time, criterion, resolution and trials (a safety phase's (T,7) array, docs/output.md; (0,7)
+        end_time, criterion, resolution, limit_equilibrium (5,) and trials (a safety phase's (T,7) array, docs/output.md; (0,7)
         for other kinds); [] for a run without phases."""
         with self._open() as f:
             if "phases" not in f:
                 return []
             g = f["phases"]
             trials = g["trials"] if "trials" in g else {}
-            rows = [{k: _plain(g[k][i]) for k in g if k != "trials"} for i in range(len(g["name"]))]
+            rows = [{k: _plain(g[k][i]) if g[k].ndim == 1 else g[k][i] for k in g if k != "trials"}
+                    for i in range(len(g["name"]))]  # fmt: skip
             for row in rows:
                 row["trials"] = trials[row["name"]][()] if row["name"] in trials else np.zeros((0, TRIAL_COLUMNS))
             return rows

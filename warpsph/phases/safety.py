@@ -18,7 +18,10 @@ from warpsph.environment import init_warp
 from warpsph.errors import SimulationError
 from warpsph.io.run_directory import CHECKPOINT
 from warpsph.phases.base import CHECK_EVERY, Stopped
+from warpsph.io.safety_figure import write_safety_figure
+from warpsph.model import host_fields
 from warpsph.phases.equilibrium import Equilibrium, largest_displacement
+from warpsph.phases.limit_equilibrium import critical_circle, ground, strength
 from warpsph.phases.search import FactorSearch, reduced_strength
 from warpsph.phases.staging import CONVERGED, NOT_CONVERGED
 from warpsph.scene import FAILURE_DISPLACEMENT
@@ -61,6 +64,16 @@ class TrialOutcome(NamedTuple):
     def row(self) -> list[float]:
         """Its row of ``/phases/trials/<name>``."""
         return [self.factor, self.outcome, self.ratio, self.steps, self.moved, self.energy, self.why]
+
+
+def limit_equilibrium_line(values) -> str:
+    """The line that reports a safety phase's ``limit_equilibrium`` [Bishop, Spencer, x, y, r] ("" without one)."""
+    if not values or not math.isfinite(values[0]):
+        return ""
+    bishop, spencer, x, y, r = values
+    other = f"Spencer {spencer:.3f}" if math.isfinite(spencer) else "Spencer none (no parallel interslice forces balance)"
+    return (f"  limit equilibrium at the phase's start: Bishop {bishop:.3f}, {other} on the critical circle centred "
+            f"at ({x:.2f}, {y:.2f}) m, radius {r:.2f} m")  # fmt: skip
 
 
 def trial_lines(trials, dim: int) -> list[str]:
@@ -134,6 +147,9 @@ class SafetyAnalysis(Equilibrium):
 
     def calculate(self, progress) -> str:
         run, phase, record = self.run, self.phase, self.run.records[-1]
+        if not record.limit_equilibrium:  # once, at the phase's start (a resumed phase has it in its record)
+            self.limit_equilibrium(record)
+        weakest = (math.inf, None)  # the weakest failing trial run here: its factor and last frame
         with contextlib.ExitStack() as stack:
             client = None
             if run.scheduler or (run.trial_workers or 0) > 1:
@@ -153,6 +169,8 @@ class SafetyAnalysis(Equilibrium):
                         run.summary.steps += outcome.steps
                     if outcome.frame is not None:
                         run.write_frame(outcome.frame, factor=outcome.factor, outcome=outcome.outcome)
+                        if outcome.outcome == FAILS and outcome.factor < weakest[0]:
+                            weakest = (outcome.factor, outcome.frame)
                     search.record(outcome.factor, outcome.stands)
                 run.checkpoint()
                 if progress is not None:
@@ -162,7 +180,34 @@ class SafetyAnalysis(Equilibrium):
                     raise Stopped()
                 run.stop_if_interrupted(checkpoint=False)
         record.criterion, record.resolution = search.result, search.resolution
+        fields = weakest[1].fields if weakest[1] is not None else {}
+        circle = record.limit_equilibrium[2:] if math.isfinite(record.limit_equilibrium[0]) else []
+        write_safety_figure(run.out / f"safety_{phase.name}.svg", fields.get("position"), fields.get("plastic_strain"),
+                            run.model.dx, circle, record.trials, record.criterion)  # fmt: skip
         return CONVERGED if search.bracketed else NOT_CONVERGED
+
+    def limit_equilibrium(self, record) -> None:
+        """Bishop's and Spencer's factors on the critical slip circle of the phase's start state, into
+        ``record`` (:mod:`~warpsph.phases.limit_equilibrium`); nan where the run is not 2D with gravity
+        along −y, or no circle cuts the ground."""
+        run, m = self.run, self.run.model
+        g = np.asarray(m.gravity, dtype=float)
+        circle = None
+        if m.spec.dim == 2 and g[1] < 0.0 and g[0] == 0.0:
+            n = m.particle_count
+            fields = host_fields(m, run.state)
+            materials = list(run.phase_scene.materials.values())
+            strengths = np.array([strength(mat) for mat in materials])
+            water = max(mat.water_density for mat in materials)
+            material = m.particle_material.numpy()[:n]
+            g_norm = float(np.linalg.norm(g))
+            weight = m.particle_mass.numpy()[:n].astype(float) * g_norm
+            circle = critical_circle(ground(fields["position"], weight, strengths[material, 0], strengths[material, 1],
+                                            fields.get("pore_pressure"), m.dx, water * g_norm))  # fmt: skip
+        if circle is None:
+            record.limit_equilibrium = [math.nan] * 5
+            return
+        record.limit_equilibrium = [circle.bishop, circle.spencer, *circle.centre, circle.radius]
 
     def _remote_trials(self, client, factors: list[float]) -> list[TrialOutcome]:
         """The trials at ``factors`` on the Dask workers of ``client``, in the order of ``factors``."""

@@ -40,6 +40,9 @@ class PhaseRecord:
     (safety) or the final over peak kinetic energy (dynamic with ``at_rest``)."""
     resolution: float = float("nan")
     """Safety: the factor of safety's ± (half the final bracket's width)."""
+    limit_equilibrium: list = field(default_factory=list)
+    """Safety: limit equilibrium at the phase's start, [Bishop's factor, Spencer's, the critical circle's
+    centre x, y and radius [m]] (nan where not found; :mod:`~warpsph.phases.limit_equilibrium`)."""
     trials: list = field(default_factory=list)
     """Safety: one row per trial (:attr:`~warpsph.phases.safety.TrialOutcome.row`)."""
 
