@@ -13,6 +13,7 @@ tolerance while its displacement grows.
 from __future__ import annotations
 
 import dataclasses
+import xml.dom.minidom
 
 import numpy as np
 import pytest
@@ -24,7 +25,7 @@ from warpsph.validation.safety import strength_reduction_phases, undrained_clay
 from warpsph import Material, Probe, Region, Scene, SceneError
 from warpsph.phases import FactorSearch, reduced_strength
 from warpsph.phases.base import CHECK_EVERY
-from warpsph.phases.safety import CAPPED, COLLAPSING, DISPLACED, TrialJudge
+from warpsph.phases.safety import CAPPED, COLLAPSING, DISPLACED, TrialJudge, resolution_warnings
 from warpsph.scene import Phase
 
 G = 9.81
@@ -64,6 +65,29 @@ def test_vertical_cut_factor_of_safety_lies_within_the_limit_analysis_bounds(cut
     summary, out = cut
     assert summary.status == "finished"
     check_cut(out, 0.02)
+
+
+def test_safety_phase_reports_its_failing_mass_and_limit_equilibrium(cut):
+    """The cut's mechanism, 2 m of face at Δx = 0.25 m, is 8 spacings high: no resolution warning.
+    Bishop's factor on the model's particles is 1.934 (measured): their lattice includes the outline, so
+    the face and crest stand half a spacing proud of it; lower arcs on the outline itself give 2.14
+    (tests/test_limit_equilibrium.py), Taylor's chart 1.953."""
+    summary, out = cut
+    safety = summary.phases[-1]
+    print(f"\nfailing mass {safety['failing_mass']:.2f} spacings; limit equilibrium {safety['limit_equilibrium']}")
+    assert 7.5 < safety["failing_mass"] < 13.0 and safety["warnings"] == []
+    assert warpsph.load_results(out / "results.h5").phases[-1]["failing_mass"] == safety["failing_mass"]
+    assert 1.85 < safety["limit_equilibrium"][0] < 2.2
+    figure = xml.dom.minidom.parse(str(out / "safety_safety.svg"))  # well-formed SVG
+    assert len(figure.getElementsByTagName("rect")) > summary.particles // 2  # the mechanism's particles
+    assert len(figure.getElementsByTagName("circle")) == len(safety["trials"]) + 1  # each trial and the slip circle
+
+
+def test_a_failing_mass_few_spacings_high_is_warned_about():
+    """Fewer than 8 spacings (to the nearest): one line naming simulation.dx and a spacing that gives 8."""
+    (line,) = resolution_warnings(6.0, 1.0)
+    assert "6.0 particle spacings high" in line and "set simulation.dx to 0.75 m or less (now 1 m)" in line
+    assert resolution_warnings(7.9998, 0.25) == [] and resolution_warnings(float("nan"), 1.0) == []
 
 
 @pytest.mark.slow
@@ -228,6 +252,16 @@ def test_safety_phase_on_elastic_bodies_would_do_nothing():
     scene = vertical_cut(0.5, strength_reduction_phases(100, 0.01))
     scene.materials["clay"] = dataclasses.replace(scene.materials["clay"], model="elastic")
     with pytest.raises(SceneError, match=r"^phases\.safety\.kind: .*would do nothing"):
+        scene.validate()
+
+
+def test_safety_phase_without_strength_to_reduce_is_refused():
+    """A viscoplastic material with neither cohesion nor friction has no strength a safety phase could
+    divide: refused at the material, naming its key."""
+    scene = vertical_cut(0.5, strength_reduction_phases(100, 0.01))
+    scene.materials["clay"] = dataclasses.replace(scene.materials["clay"], yield_function="mohr_coulomb", cohesion=0.0,
+                                                  friction_angle=0.0)
+    with pytest.raises(SceneError, match=r"^materials\.clay\.cohesion: must be > 0"):
         scene.validate()
 
 

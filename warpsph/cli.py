@@ -160,7 +160,7 @@ def _run(args) -> int:
                 if line:
                     bar.write(line, file=sys.stdout)
         where = f"phase {p['name']}: " if run.staged else ""
-        for line in p["energy_warnings"]:  # the energy balance's checks (docs/method.md, Energy balance)
+        for line in p["warnings"] + p["energy_warnings"]:  # the phase's own, the energy balance's checks
             bar.write(f"warpsph: warning: {where}{line}", file=sys.stderr)
 
     try:

@@ -113,8 +113,9 @@ class ResultsWriter:
 
     def write_phases(self, records: list[dict]) -> None:
         """Replace ``/phases``: one row per phase, columns ``name``, ``kind``, ``outcome`` (strings),
-        ``first_step``, ``last_step`` (int64), ``start_time``, ``end_time``, ``criterion``, ``resolution``
-        (float64), ``limit_equilibrium`` (P,5), and a safety phase's trials as ``/phases/trials/<name>``, (T,7) float64 rows (docs/output.md)."""
+        ``first_step``, ``last_step`` (int64), ``start_time``, ``end_time``, ``criterion``, ``resolution``,
+        ``failing_mass`` (float64), ``limit_equilibrium`` (P,5), and a safety phase's trials as
+        ``/phases/trials/<name>``, (T,7) float64 rows (docs/output.md)."""
         self._check_open()
         with _open(self.path, "r+") as f:
             if "phases" in f:
@@ -125,7 +126,7 @@ class ResultsWriter:
                 group.create_dataset(column, data=np.array([r[column] for r in records], dtype=object), dtype=text)
             for column in ("first_step", "last_step"):
                 group.create_dataset(column, data=np.array([r[column] for r in records], dtype=np.int64))
-            for column in ("start_time", "end_time", "criterion", "resolution"):
+            for column in ("start_time", "end_time", "criterion", "resolution", "failing_mass"):
                 group.create_dataset(column, data=np.array([r[column] for r in records], dtype=np.float64))
             rows = [r["limit_equilibrium"] or [np.nan] * 5 for r in records]
             group.create_dataset("limit_equilibrium", data=np.array(rows, dtype=np.float64).reshape(-1, 5))
@@ -243,7 +244,7 @@ class Results:
     @property
     def phases(self) -> list[dict]:
         """The phases run, in order: dicts with name, kind, outcome, first_step, last_step, start_time,
-        end_time, criterion, resolution, limit_equilibrium (5,) and trials (a safety phase's (T,7) array, docs/output.md; (0,7)
+        end_time, criterion, resolution, failing_mass, limit_equilibrium (5,) and trials (a safety phase's (T,7) array, docs/output.md; (0,7)
         for other kinds); [] for a run without phases."""
         with self._open() as f:
             if "phases" not in f:

@@ -47,3 +47,8 @@ class Calculation:
     def calculate(self, progress) -> str:
         """Run the phase to its end; its outcome (``warpsph.phases.CONVERGED``, ...)."""
         raise NotImplementedError
+
+    def warnings(self, record) -> list[str]:
+        """One line per thing the phase's result (``record``, a :class:`~warpsph.phases.staging.PhaseRecord`)
+        should make its user doubt, each saying what to change (the command line prints them)."""
+        return []

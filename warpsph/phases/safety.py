@@ -27,6 +27,8 @@ from warpsph.phases.staging import CONVERGED, NOT_CONVERGED
 from warpsph.scene import FAILURE_DISPLACEMENT
 
 
+FEWEST_PARTICLES_ACROSS = 8
+"""The failing mass's height in particle spacings below which a safety phase warns (docs/scenes.md, *Phases*)."""
 STANDS, FAILS, UNDECIDED = 1, 0, -1
 """A trial's outcome, as the second column of ``/phases/trials/<name>`` and the frame attribute ``outcome``."""
 CONVERGED_WHY, DISPLACED, COLLAPSING, RAN_AWAY, CAPPED = range(5)
@@ -64,6 +66,17 @@ class TrialOutcome(NamedTuple):
     def row(self) -> list[float]:
         """Its row of ``/phases/trials/<name>``."""
         return [self.factor, self.outcome, self.ratio, self.steps, self.moved, self.energy, self.why]
+
+
+def resolution_warnings(failing_mass: float, dx: float) -> list[str]:
+    """A line when the failing mass is fewer than ``FEWEST_PARTICLES_ACROSS`` spacings ``dx`` [m] high (to
+    the nearest spacing): the factor of safety is not yet converged in the spacing."""
+    if not failing_mass < FEWEST_PARTICLES_ACROSS - 0.5:
+        return []
+    finer = dx * failing_mass / FEWEST_PARTICLES_ACROSS
+    return [f"the failing mass is {failing_mass:.1f} particle spacings high, fewer than {FEWEST_PARTICLES_ACROSS}: "
+            f"the factor of safety may move by more than 2 % when the spacing halves; set simulation.dx to "
+            f"{finer:.2g} m or less (now {dx:g} m)"]  # fmt: skip
 
 
 def limit_equilibrium_line(values) -> str:
@@ -181,10 +194,23 @@ class SafetyAnalysis(Equilibrium):
                 run.stop_if_interrupted(checkpoint=False)
         record.criterion, record.resolution = search.result, search.resolution
         fields = weakest[1].fields if weakest[1] is not None else {}
+        if "position" in fields:
+            record.failing_mass = self.mechanism_height(fields["position"]) / run.model.dx
         circle = record.limit_equilibrium[2:] if math.isfinite(record.limit_equilibrium[0]) else []
         write_safety_figure(run.out / f"safety_{phase.name}.svg", fields.get("position"), fields.get("plastic_strain"),
                             run.model.dx, circle, record.trials, record.criterion)  # fmt: skip
         return CONVERGED if search.bracketed else NOT_CONVERGED
+
+    def mechanism_height(self, positions: np.ndarray) -> float:
+        """The height [m] of the mechanism of a trial that ended at ``positions`` (N,3), the state being at
+        the phase's start: the extent along gravity of the particles that moved more than half the most,
+        plus one spacing."""
+        start = self.run.state.particle_q.numpy()[: len(positions)].astype(float)
+        moved = np.linalg.norm(positions - start, axis=1)
+        return self.run.height(start[moved > 0.5 * moved.max()]) + self.run.model.dx
+
+    def warnings(self, record) -> list[str]:
+        return resolution_warnings(record.failing_mass, self.run.model.dx)
 
     def limit_equilibrium(self, record) -> None:
         """Bishop's and Spencer's factors on the critical slip circle of the phase's start state, into

@@ -40,6 +40,9 @@ class PhaseRecord:
     (safety) or the final over peak kinetic energy (dynamic with ``at_rest``)."""
     resolution: float = float("nan")
     """Safety: the factor of safety's ± (half the final bracket's width)."""
+    failing_mass: float = float("nan")
+    """Safety: the height of the weakest failing trial's mechanism in particle spacings (its particles
+    that moved more than half the most, their extent along gravity, plus one spacing)."""
     limit_equilibrium: list = field(default_factory=list)
     """Safety: limit equilibrium at the phase's start, [Bishop's factor, Spencer's, the critical circle's
     centre x, y and radius [m]] (nan where not found; :mod:`~warpsph.phases.limit_equilibrium`)."""
