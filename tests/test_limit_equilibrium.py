@@ -86,7 +86,8 @@ def test_particles_converge_to_the_continuous_outline():
 def test_undrained_slope_against_taylors_chart():
     """A 60° slope 2 m high in clay of c_u = 12 kPa (φ = 0, γ = 19.62 kN/m³) on 1 m of it (the undrained
     slope of the validation manual): Taylor's stability number 0.191 gives F = 1.601; measured 1.597 at
-    Δx = 0.05 m. Spencer's method has no solution with parallel interslice forces on this circle (φ = 0)."""
+    Δx = 0.05 m. Spencer's method finds no inclination of parallel interslice forces within ±1.2 rad that
+    balances this circle (φ = 0)."""
     crest = 2.0 + 2.0 / math.tan(math.radians(60.0))
 
     def slope(x):

@@ -84,7 +84,7 @@ def limit_equilibrium_line(values) -> str:
     if not values or not math.isfinite(values[0]):
         return ""
     bishop, spencer, x, y, r = values
-    other = f"Spencer {spencer:.3f}" if math.isfinite(spencer) else "Spencer none (no parallel interslice forces balance)"
+    other = f"Spencer {spencer:.3f}" if math.isfinite(spencer) else "Spencer not found"
     return (f"  limit equilibrium at the phase's start: Bishop {bishop:.3f}, {other} on the critical circle centred "
             f"at ({x:.2f}, {y:.2f}) m, radius {r:.2f} m")  # fmt: skip
 
