@@ -70,9 +70,9 @@ def ground(position: np.ndarray, weight: np.ndarray, cohesion: np.ndarray, tan_p
     pore = np.zeros(len(position)) if pore_pressure is None else np.maximum(pore_pressure, 0.0)
     xs, ys, above, weights, cs, ts, us, ponded = [], [], [], [], [], [], [], []
     strips = (np.arange(SUBSLICES) + 0.5) / SUBSLICES - 0.5
-    for k in np.unique(column):
-        rows = np.flatnonzero(column == k)
-        rows = rows[np.argsort(position[rows, 1])]
+    order = np.lexsort((position[:, 1], column))  # by column, then upwards
+    starts = np.flatnonzero(np.diff(column[order], prepend=column[order][0] - 1))
+    for rows in np.split(order, starts[1:]):
         strip = weight[rows].astype(float) / SUBSLICES
         for offset in strips:
             xs.append(float(np.mean(position[rows, 0])) + offset * width)
