@@ -88,6 +88,7 @@ def test_a_failing_mass_few_spacings_high_is_warned_about():
     (line,) = resolution_warnings(6.0, 1.0)
     assert "6.0 particle spacings high" in line and "set simulation.dx to 0.75 m or less (now 1 m)" in line
     assert resolution_warnings(7.9998, 0.25) == [] and resolution_warnings(float("nan"), 1.0) == []
+    assert resolution_warnings(6.0, 1.0, fewest=5.0) == [] and len(resolution_warnings(6.0, 1.0, fewest=12.0)) == 1
 
 
 @pytest.mark.slow
@@ -232,6 +233,7 @@ def test_a_trial_whose_energy_falls_while_it_moves_is_not_collapsing():
 @pytest.mark.parametrize("change, key, words", [
     ({"factor_tolerance": 0.0}, "phases.safety.factor_tolerance", "must be"),
     ({"factor_max": 0.5}, "phases.safety.factor_max", "must be"),
+    ({"min_failing_mass": 0.5}, "phases.safety.min_failing_mass", "must be"),
 ])  # fmt: skip
 def test_bad_safety_phases_name_their_key(change, key, words):
     phases = strength_reduction_phases(100, 0.01)

@@ -543,3 +543,6 @@ class Phase:
     """Safety: a trial also fails once a particle has moved more than this [m] from the trial's start
     (a mechanism has formed); 0: ``FAILURE_DISPLACEMENT`` times the active bodies' height (their
     extent along gravity, or their largest extent without it)."""
+    min_failing_mass: float = 8.0
+    """Safety: the phase warns when its failing mass is fewer particle spacings high than this [-] (≥ 1):
+    the factor of safety is then not converged in the spacing."""

@@ -27,8 +27,6 @@ from warpsph.phases.staging import CONVERGED, NOT_CONVERGED
 from warpsph.scene import FAILURE_DISPLACEMENT
 
 
-FEWEST_PARTICLES_ACROSS = 8
-"""The failing mass's height in particle spacings below which a safety phase warns (docs/scenes.md, *Phases*)."""
 STANDS, FAILS, UNDECIDED = 1, 0, -1
 """A trial's outcome, as the second column of ``/phases/trials/<name>`` and the frame attribute ``outcome``."""
 CONVERGED_WHY, DISPLACED, COLLAPSING, RAN_AWAY, CAPPED = range(5)
@@ -68,15 +66,14 @@ class TrialOutcome(NamedTuple):
         return [self.factor, self.outcome, self.ratio, self.steps, self.moved, self.energy, self.why]
 
 
-def resolution_warnings(failing_mass: float, dx: float) -> list[str]:
-    """A line when the failing mass is fewer than ``FEWEST_PARTICLES_ACROSS`` spacings ``dx`` [m] high (to
-    the nearest spacing): the factor of safety is not yet converged in the spacing."""
-    if not failing_mass < FEWEST_PARTICLES_ACROSS - 0.5:
+def resolution_warnings(failing_mass: float, dx: float, fewest: float = 8.0) -> list[str]:
+    """A line when the failing mass is fewer than ``fewest`` spacings ``dx`` [m] high (to the nearest
+    spacing; the phase's ``min_failing_mass``): the factor of safety is not yet converged in the spacing."""
+    if not failing_mass < fewest - 0.5:
         return []
-    finer = dx * failing_mass / FEWEST_PARTICLES_ACROSS
-    return [f"the failing mass is {failing_mass:.1f} particle spacings high, fewer than {FEWEST_PARTICLES_ACROSS}: "
-            f"the factor of safety may move by more than 2 % when the spacing halves; set simulation.dx to "
-            f"{finer:.2g} m or less (now {dx:g} m)"]  # fmt: skip
+    return [f"the failing mass is {failing_mass:.1f} particle spacings high, fewer than {fewest:g}: the factor of "
+            f"safety may move by more than 2 % when the spacing halves; set simulation.dx to "
+            f"{dx * failing_mass / fewest:.2g} m or less (now {dx:g} m)"]  # fmt: skip
 
 
 def limit_equilibrium_line(values) -> str:
@@ -210,7 +207,7 @@ class SafetyAnalysis(Equilibrium):
         return self.run.height(start[moved > 0.5 * moved.max()]) + self.run.model.dx
 
     def warnings(self, record) -> list[str]:
-        return resolution_warnings(record.failing_mass, self.run.model.dx)
+        return resolution_warnings(record.failing_mass, self.run.model.dx, self.phase.min_failing_mass)
 
     def limit_equilibrium(self, record) -> None:
         """Bishop's and Spencer's factors on the critical slip circle of the phase's start state, into
