@@ -69,7 +69,8 @@ def factor_search(out: Path, tolerance: float):
     phase = results.phases[-1]
     trials, fos = phase["trials"], phase["criterion"]
     stood, failed = trials[trials[:, 1] == 1, 0], trials[trials[:, 1] == 0, 0]
-    print(f"\nfactor of safety {fos:.4f} ± {tolerance}; trials (factor, outcome, ratio, steps, moved, energy, why):\n{trials}")
+    print(f"\nfactor of safety {fos:.4f} ± {tolerance}; trials (factor, outcome, ratio, steps, moved, energy, "
+          f"why):\n{trials}")
     assert phase["outcome"] == "converged"
     assert stood.max() < fos < failed.min() and failed.min() - stood.max() <= 2 * tolerance + 1e-12
     factors = [results.frame_attrs(k).get("factor") for k in range(len(results.times))]

@@ -80,7 +80,8 @@ class RunSummary:
     and where its checkpoint is."""
     phases: list = field(default_factory=list)
     """One {name, kind, outcome, criterion, resolution, limit_equilibrium, failing_mass, warnings, steps,
-    trials, energy, energy_warnings} per phase run (energy: the balance at the phase's end, docs/method.md *Energy balance*)."""
+    trials, energy, energy_warnings} per phase run (energy: the balance at the phase's end, docs/method.md
+    *Energy balance*)."""
 
     @property
     def particle_steps_per_second(self) -> float:

@@ -505,9 +505,10 @@ class Phase:
     pressure iteration of a step (or of the steady state) has converged [-]; consolidation: both."""
     max_steps: int = 20000
     """Equilibrium: the step cap (a phase that reaches it has not converged); safety: the cap of each
-    trial (one collapsing there fails, one still slowing down is extended, twice at most); consolidation: the cap of each equilibrium of the
-    skeleton (a phase whose skeleton does not reach equilibrium within it ends not converged); dynamic
-    and flow: a cap on the phase's steps too (a steady flow phase's pressure iterations)."""
+    trial (one collapsing there fails, one still slowing down is extended, twice at most); consolidation:
+    the cap of each equilibrium of the skeleton (a phase whose skeleton does not reach equilibrium within
+    it ends not converged); dynamic and flow: a cap on the phase's steps too (a steady flow phase's
+    pressure iterations)."""
     damping: float = 0.8
     """Equilibrium, safety and consolidation: the local damping coefficient α in [0, 1) [-]."""
     at_rest: float = 0.0

@@ -16,7 +16,8 @@ import numpy as np
 FORMAT = "warpsph-results"
 FORMAT_VERSION = 1
 TRIAL_COLUMNS = 7
-"""A safety trial's row in ``/phases/trials/<name>``: factor, outcome, ratio, steps, displacement, kinetic energy, why."""
+"""A safety trial's row in ``/phases/trials/<name>``: factor, outcome, ratio, steps, displacement, kinetic
+energy, why."""
 _SERIES_COLUMNS = {"step": np.int64, "time": np.float64, "value": np.float64}
 
 
@@ -133,7 +134,8 @@ class ResultsWriter:
             trials = group.create_group("trials")
             for r in records:
                 if r.get("trials"):
-                    trials.create_dataset(r["name"], data=np.array(r["trials"], dtype=np.float64).reshape(-1, TRIAL_COLUMNS))
+                    rows = np.array(r["trials"], dtype=np.float64).reshape(-1, TRIAL_COLUMNS)
+                    trials.create_dataset(r["name"], data=rows)
 
     def append_series(self, name: str, step: int, time: float, value: float) -> None:
         """Buffer one sample of scalar series ``name`` (time [s]); written at the next frame or close()."""
@@ -244,8 +246,8 @@ class Results:
     @property
     def phases(self) -> list[dict]:
         """The phases run, in order: dicts with name, kind, outcome, first_step, last_step, start_time,
-        end_time, criterion, resolution, failing_mass, limit_equilibrium (5,) and trials (a safety phase's (T,7) array, docs/output.md; (0,7)
-        for other kinds); [] for a run without phases."""
+        end_time, criterion, resolution, failing_mass, limit_equilibrium (5,) and trials (a safety phase's
+        (T,7) array, docs/output.md; (0,7) for other kinds); [] for a run without phases."""
         with self._open() as f:
             if "phases" not in f:
                 return []

@@ -38,11 +38,12 @@ def write_safety_figure(path: Path, positions: np.ndarray | None, plastic_strain
         side = dx * scale
         for (x, y, _), e in zip(positions, strain):
             px, py = at(x, y)
-            parts.append(f'<rect x="{px - side / 2:.1f}" y="{py - side / 2:.1f}" width="{side:.1f}" '
-                         f'height="{side:.1f}" fill="{_colour(e / top)}" stroke="#999" stroke-width="0.3"/>')  # fmt: skip
+            parts.append(f'<rect x="{px - side / 2:.1f}" y="{py - side / 2:.1f}" width="{side:.1f}" height='
+                         f'"{side:.1f}" fill="{_colour(e / top)}" stroke="#999" stroke-width="0.3"/>')  # fmt: skip
         if circle:
             cx, cy = at(circle[0], circle[1])
-            parts.append(f'<clipPath id="ground"><rect x="0" y="0" width="{WIDTH:.0f}" height="{HEIGHT:.0f}"/></clipPath>')
+            parts.append(f'<clipPath id="ground"><rect x="0" y="0" width="{WIDTH:.0f}" '
+                         f'height="{HEIGHT:.0f}"/></clipPath>')  # fmt: skip
             parts.append(f'<circle cx="{cx:.1f}" cy="{cy:.1f}" r="{circle[2] * scale:.1f}" fill="none" '
                          f'stroke="#1f77b4" stroke-width="1.5" clip-path="url(#ground)"/>')  # fmt: skip
         parts.append(f'<text x="{MARGIN}" y="20">weakest failing trial: plastic strain (white 0, red {top:.3g}); '

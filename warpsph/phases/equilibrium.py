@@ -73,8 +73,10 @@ class Equilibrium(Calculation):
                 run.results.append_series("unbalanced_force_ratio", run.step_index, run.time, ratio)
                 run.results.append_series("kinetic_energy", run.step_index, run.time, self.kinetic_energy)
                 converged = ratio < phase.tolerance
-                if not converged:
-                    capped = k >= phase.max_steps if judge is None else judge(run.state.particle_q, k, self.kinetic_energy)
+                if not converged and judge is None:
+                    capped = k >= phase.max_steps
+                elif not converged:
+                    capped = judge(run.state.particle_q, k, self.kinetic_energy)
             stopped = stop is not None and run.step_index >= stop and k % CHECK_EVERY == 0
             if output:
                 run.output(converged or capped or stopped, frame_every, ck_every)

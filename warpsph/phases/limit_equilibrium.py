@@ -35,8 +35,8 @@ def strength(material) -> tuple[float, float]:
 @dataclass(frozen=True)
 class Ground:
     """A 2D model's particles in vertical strips ``width`` [m] wide, ``SUBSLICES`` to a column of
-    particles: the slices of every circle. Per strip, ascending: the particles' heights [m], the weight at and above each
-    (one entry more, the last 0) [N/m], and each particle's cohesion [Pa], tan φ′ and pore pressure
+    particles: the slices of every circle. Per strip, ascending: the particles' heights [m], the weight
+    at and above each (one entry more, the last 0) [N/m], and each particle's cohesion [Pa], tan φ′ and pore pressure
     [Pa] (compression positive, suction taken as 0); per strip, the pressure of free water standing on
     it [Pa] (a reservoir: the top particle's pore pressure beyond a whole cell of water)."""
 
@@ -161,7 +161,8 @@ def bishop(s: Slices, iterations: int = 100) -> np.ndarray:
 def spencer(s: Slices, k: int, near: float) -> tuple[float, float]:
     """Spencer's factor of safety of circle ``k`` and the inclination θ [rad] of its interslice forces:
     force and moment equilibrium together, the forces parallel. Each slice's interslice resultant is
-    Q = ((c′b/cos α + (W cos α − ub/cos α) tan φ′)/F − W sin α) / m_θ, m_θ = cos(α − θ) + sin(α − θ) tan φ′/F;
+    Q = ((c′b/cos α + (W cos α − ub/cos α) tan φ′)/F − W sin α) / m_θ,
+    m_θ = cos(α − θ) + sin(α − θ) tan φ′/F;
     ΣQ = 0 (forces) and ΣQ cos(α − θ) = 0 (moments about the centre) fix F and θ, F sought within a
     factor 2 of ``near`` (Bishop's) where every m_θ > 0, θ within ±1.2 rad. (nan, nan) where none is
     found."""

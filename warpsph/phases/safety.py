@@ -17,9 +17,9 @@ from warpsph.cluster import dask_client
 from warpsph.environment import init_warp
 from warpsph.errors import SimulationError
 from warpsph.io.run_directory import CHECKPOINT
-from warpsph.phases.base import CHECK_EVERY, Stopped
 from warpsph.io.safety_figure import write_safety_figure
 from warpsph.model import host_fields
+from warpsph.phases.base import CHECK_EVERY, Stopped
 from warpsph.phases.equilibrium import Equilibrium, largest_displacement
 from warpsph.phases.limit_equilibrium import critical_circle, ground, strength
 from warpsph.phases.search import FactorSearch, reduced_strength
@@ -41,8 +41,6 @@ class TrialOutcome(NamedTuple):
     """What a safety trial did (:meth:`SafetyAnalysis.trial`)."""
 
     factor: float
-    outcome: int
-    """:data:`STANDS`, :data:`FAILS` or :data:`UNDECIDED`."""
     why: int
     """:data:`CONVERGED_WHY`, :data:`DISPLACED`, :data:`COLLAPSING`, :data:`RAN_AWAY` or :data:`CAPPED`."""
     ratio: float
@@ -54,6 +52,12 @@ class TrialOutcome(NamedTuple):
     """The kinetic energy at its last check [J, J/m in 2D] (inf where the run guard stopped the trial)."""
     frame: object
     """The :class:`~warpsph.runner.FrameContent` of its last state, or None."""
+
+    @property
+    def outcome(self) -> int:
+        """:data:`STANDS` (it converged), :data:`UNDECIDED` (still slowing down at its extended cap) or
+        :data:`FAILS`."""
+        return STANDS if self.why == CONVERGED_WHY else UNDECIDED if self.why == CAPPED else FAILS
 
     @property
     def stands(self) -> bool | None:
@@ -141,7 +145,8 @@ class TrialJudge:
             return False
         before, last = self.moved[-1 - n] - self.moved[-1 - 2 * n], self.moved[-1] - self.moved[-1 - n]
         energy_before, energy_last = np.mean(self.energy[-2 * n : -n]), np.mean(self.energy[-n:])
-        return last > self.MOVING * self.limit and last >= self.SLOWING * before and energy_last >= self.SLOWING * energy_before
+        moving = last > self.MOVING * self.limit
+        return moving and last >= self.SLOWING * before and energy_last >= self.SLOWING * energy_before
 
 
 class SafetyAnalysis(Equilibrium):
@@ -264,7 +269,6 @@ class SafetyAnalysis(Equilibrium):
             why = CONVERGED_WHY if converged else judge.why
         except SimulationError:
             ratio, moved, energy, why = math.inf, math.inf, math.inf, RAN_AWAY
-        outcome = STANDS if why == CONVERGED_WHY else UNDECIDED if why == CAPPED else FAILS
         frame = run.frame()._replace(balance=run.balance_since_start()) if math.isfinite(moved) else None
         steps = run.step_index - first
         for name, arr in run.state.arrays().items():
@@ -274,7 +278,7 @@ class SafetyAnalysis(Equilibrium):
         run.start_energy()
         run.clear_guards()
         run.model.material_plasticity = plastic_materials(spec, materials, device)
-        return TrialOutcome(factor, outcome, why, ratio, steps, moved, energy, frame)
+        return TrialOutcome(factor, why, ratio, steps, moved, energy, frame)
 
 
 def remote_trial(run_type: type, scene, checkpoint: bytes, factor: float, device: str | None,
