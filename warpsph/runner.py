@@ -374,10 +374,11 @@ class Run:
 
     def _check(self) -> None:
         """Read what the run guards marked on the device since the last read; stop the run at the first
-        step they marked, naming what was wrong then (once a step)."""
+        step they marked, naming what was wrong then, or at the first step after the last read where a
+        neighbour list overflowed (once a step)."""
         if self._checked == self.step_index:
             return
-        self._checked = self.step_index
+        previous, self._checked = self._checked, self.step_index
         flagged = self.guard.read()
         grown = self.energy_guard.read() if "energy_start" in self.loop else None
         if grown is not None and (flagged is None or grown[0] < flagged.step):
@@ -387,6 +388,10 @@ class Run:
                            f"{100 * ENERGY_MADE_LIMIT:g} %) and {ratio:.3g} times the first's (limit "
                            f"{ENERGY_GROWTH:g})", step)  # fmt: skip
         if flagged is None:
+            try:
+                self.solver.check_neighbours()
+            except SimulationError as e:
+                self.unstable(str(e), self.step_index if previous is None else min(previous + 1, self.step_index))
             return
         where = np.array2string(flagged.position, precision=4)
         if flagged.particle is None:

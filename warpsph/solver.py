@@ -15,8 +15,9 @@ from dataclasses import dataclass
 
 import warp as wp
 
-from warpsph.launching import launch_rows
 from warpsph.builder import rigid_region_members
+from warpsph.errors import SimulationError
+from warpsph.launching import launch_rows
 from warpsph.model import Model, State
 from warpsph.sph.neighbours import NeighbourList, NeighbourScratch
 from warpsph.stages.boundaries import Boundaries
@@ -33,6 +34,11 @@ from warpsph.stages.shifting import apply_shift, compute_shift
 from warpsph.stages.virtual_points import VirtualRegenerator
 from warpsph.stages.pressure import PressureProjection
 from warpsph.stages.taylor import launch_full_step, launch_half_step, launch_real_motion, launch_virtual_continuity
+
+NEIGHBOUR_CHECK_EVERY = 10
+"""Steps beyond which a step checks the neighbour lists that nothing else has checked: a caller that
+checks them every this many steps (a run: every ``phases.base.CHECK_EVERY`` steps and before each
+write) is the one that finds an overflow."""
 
 
 @dataclass(frozen=True, kw_only=True)
@@ -128,6 +134,9 @@ class Solver:
             self.layout = GhostLayout(model, self.boundaries.plane_position, regenerator,
                                       functools.partial(rigid_region_members, model.scene))  # fmt: skip
         self.support = 2.0 * model.h
+        self.neighbour_lists: list[NeighbourList] = []
+        self._unchecked = 0
+        """Steps since the neighbour lists were last checked."""
         self.projection: PressureProjection | None = None  # pore_water only (two-set)
         if s.scheme == "two_set":
             self._init_two_set()
@@ -155,7 +164,20 @@ class Solver:
     def _neighbour_list(self, same_set: bool = False) -> NeighbourList:
         """A neighbour list within the support, built in turn with the solver's others (one scratch)."""
         m = self.model
-        return NeighbourList(m.spec, m.extent, self.support, m.device, same_set, self.neighbour_scratch)
+        nl = NeighbourList(m.spec, m.extent, self.support, m.device, same_set, self.neighbour_scratch)
+        self.neighbour_lists.append(nl)
+        return nl
+
+    def check_neighbours(self) -> None:
+        """Check the neighbour lists built since the last check (:meth:`NeighbourList.check`: one wait for
+        the device) and grow their room ahead of need; a step calls it after more than
+        ``NEIGHBOUR_CHECK_EVERY`` steps unchecked, a run at its own check cadence. Raises :class:`SimulationError` where a point
+        had more neighbours than its list held."""
+        self._unchecked = 0
+        if any([nl.check() for nl in self.neighbour_lists]):
+            raise SimulationError(
+                f"a point had more neighbours than its list held (particles crowded by more than "
+                f"{NeighbourList.GROWTH - 1:.0%} within {NEIGHBOUR_CHECK_EVERY} steps, which a stable run does not do)")
 
     # -- two-set Taylor-SPH -------------------------------------------------------------------
     def _init_two_set(self) -> None:
@@ -380,6 +402,9 @@ class Solver:
                 self.stage_seconds[stage.name] = self.stage_seconds.get(stage.name, 0.0) + time.perf_counter() - start
             else:
                 stage.run(state_in, state_out, t, dt)
+        self._unchecked += 1
+        if self._unchecked > NEIGHBOUR_CHECK_EVERY:
+            self.check_neighbours()
 
 
 def warm_up(solver: Solver, guard, state: State, scratch: State, t: float, dt: float) -> float:

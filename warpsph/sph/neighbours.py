@@ -2,8 +2,8 @@
 
 A :class:`NeighbourList` holds, for each of the first ``n_query`` query points, the indices of the
 source points closer than the support radius 2h (the query point itself excluded when both sets are
-the same). It is built once per step and reused by every stage of that step; the hash-grid query
-only yields candidates, so the distance test is done here.
+the same). It is built once per step, with no read of the device, and reused by every stage of that
+step; :meth:`NeighbourList.check` grows its room at the run's check cadence (docs/performance.md).
 """
 
 
@@ -49,24 +49,38 @@ def _kernels(spec: Spec):
                 if n < width:
                     padded[row + n] = b
                 n += 1
-        counts[a] = n
         if n > width:
             overflow[0] = 1
+            if width > 0:
+                n = width
+        counts[a] = n
 
     @wp.kernel(enable_backward=False, module="unique")
     def compact(
         first: int,
+        n_query: int,
         width: int,
         padded: wp.array(dtype=wp.int32),
         offsets: wp.array(dtype=wp.int32),
         indices: wp.array(dtype=wp.int32),
+        overflow: wp.array(dtype=wp.int32),
     ):
-        """Copy row ``a`` of the padded table to its CSR place (a row kernel)."""
+        """Copy row ``a`` of the padded table to its CSR place (a row kernel), within the room of
+        ``indices``: offsets past it are clamped to it (each row clamps its own start, the last row the
+        end too; a row reading its neighbour's clamps it alike) and ``overflow[1]`` = 1."""
         a = first + wp.tid()
-        start = offsets[a]
+        room = indices.shape[0]
+        start = wp.min(offsets[a], room)
+        end = offsets[a + 1]
+        if end > room:
+            end = room
+            overflow[1] = 1
         row = a * width
-        for k in range(offsets[a + 1] - start):
+        for k in range(end - start):
             indices[start + k] = padded[row + k]
+        offsets[a] = start
+        if a == n_query - 1:
+            offsets[a + 1] = end
 
     return gather, compact
 
@@ -103,20 +117,23 @@ class NeighbourScratch:
 class NeighbourList:
     """CSR neighbour list of query points against source points within ``radius`` [m].
 
-    ``offsets`` (n_query + 1,) int32 and ``indices`` (n_pairs,) int32: the neighbours of query
-    point a are ``indices[offsets[a]:offsets[a+1]]``, in hash-grid cell order.
+    ``offsets`` (n_query + 1,) int32 and ``indices`` int32: the neighbours of query point a are
+    ``indices[offsets[a]:offsets[a+1]]``, in hash-grid cell order.
 
     A build makes one hash-grid query pass: it stores up to ``width`` neighbours per query point
     in a padded (n_query, width) table (:class:`NeighbourScratch`) while counting them, then scans
-    the counts and compacts the table into CSR. ``width`` adapts: when a point has more neighbours
-    than the table holds (on the first build, and whenever the particles crowd), the table grows to
-    1.25 × the largest count and the query pass is repeated.
+    the counts and compacts the table into CSR. A build of as many points as the last reads nothing
+    from the device: it marks on the device a point with more neighbours than ``width`` (which keeps
+    its first ``width``) or more pairs than ``indices`` holds, and :meth:`check`, called at the run's
+    check cadence, reads the marks and grows the room ahead of need (``GROWTH`` over the largest count,
+    ``INDEX_HEADROOM`` over the pairs). The first build, and one of a different number of points,
+    sizes the room exactly, reading the device.
     """
 
     GROWTH = 1.25
-    """Headroom of the padded table over the largest neighbour count seen [-]."""
-    INDEX_HEADROOM = 1.05
-    """Headroom of the CSR indices over the pairs of the build that (re)allocates them [-]."""
+    """Room of the padded table over the largest neighbour count seen [-]."""
+    INDEX_HEADROOM = 1.1
+    """Room of the CSR indices over the pairs seen [-]."""
 
     def __init__(self, spec: Spec, extent: np.ndarray, radius: float, device, same_set: bool = False,
                  scratch: NeighbourScratch | None = None):  # fmt: skip
@@ -131,14 +148,16 @@ class NeighbourList:
         self.indices = wp.zeros(1, dtype=wp.int32, device=device)
         self.width = 0
         """Neighbours per row of the padded table [-]."""
-        self.overflow = wp.zeros(1, dtype=wp.int32, device=device)
-        """(1,) int32 1 where the last query pass found more neighbours than ``width``."""
+        self.overflow = wp.zeros(2, dtype=wp.int32, device=device)
+        """(2,) int32: [0] 1 where a build since the last check found more neighbours than ``width``,
+        [1] 1 where one found more pairs than ``indices`` holds."""
+        self._sizing = wp.zeros(2, dtype=wp.int32, device=device)
+        """The sizing pass's marks (the counts are what it is for)."""
         self.n_query = 0
-        self.n_pairs = 0
+        self.n_source = 0
 
     def build(self, query: wp.array, n_query: int, source: wp.array, n_source: int) -> None:
         """Find the neighbours of ``query[:n_query]`` among ``source[:n_source]``."""
-        gather, compact = _kernels(self.spec)
         real = self.spec.real
         src = source[:n_source]
         grid = self.scratch.grid
@@ -146,24 +165,62 @@ class NeighbourList:
         if self.counts.shape[0] < n_query + 1:
             self.counts = wp.zeros(n_query + 1, dtype=wp.int32, device=self.device)
             self.offsets = wp.zeros(n_query + 1, dtype=wp.int32, device=self.device)
-        self.n_query = n_query
+        sized = (n_query, n_source) == (self.n_query, self.n_source) and self.width > 0
+        self.n_query, self.n_source = n_query, n_source
         if n_query == 0:
-            self.n_pairs = 0
+            self.offsets.zero_()
             return
         args = [wp.uint64(grid.id), query, src, real(self.radius), int(self.same_set)]
-        while True:
-            padded = self.scratch.table(n_query * self.width)
-            self.overflow.zero_()
-            launch_rows(gather, n_query, [*args, self.width, self.counts, padded, self.overflow], self.device)
-            if not self.overflow.numpy()[0]:
-                break
-            self.width = int(self.counts.numpy()[:n_query].max() * self.GROWTH) + 1
+        if not sized:
+            self._size(args)
+        padded = self._gather(args)
         self.counts[n_query : n_query + 1].zero_()
         wp.utils.array_scan(self.counts[: n_query + 1], self.offsets[: n_query + 1], inclusive=False)
-        self.n_pairs = int(self.offsets[n_query : n_query + 1].numpy()[0])
-        if self.indices.shape[0] < max(self.n_pairs, 1):
-            self.indices = wp.zeros(int(self.n_pairs * self.INDEX_HEADROOM) + 16, dtype=wp.int32, device=self.device)
-        launch_rows(compact, n_query, [self.width, padded, self.offsets, self.indices], self.device)
+        if not sized:
+            self._room(self.n_pairs)
+        compact = _kernels(self.spec)[1]
+        launch_rows(compact, n_query, [n_query, self.width, padded, self.offsets, self.indices, self.overflow],
+                    self.device)  # fmt: skip
+
+    def _gather(self, args: list) -> wp.array:
+        """One query pass into the padded table at the current ``width``; the table."""
+        padded = self.scratch.table(self.n_query * self.width)
+        launch_rows(_kernels(self.spec)[0], self.n_query, [*args, self.width, self.counts, padded, self.overflow],
+                    self.device)  # fmt: skip
+        return padded
+
+    def _size(self, args: list) -> None:
+        """The ``width`` a build of these points needs, ``GROWTH`` over the largest count, from a query
+        pass that only counts (reads the device)."""
+        launch_rows(_kernels(self.spec)[0], self.n_query, [*args, 0, self.counts, self.scratch.padded, self._sizing],
+                    self.device)  # fmt: skip
+        self.width = int(self.counts.numpy()[: self.n_query].max() * self.GROWTH) + 1
+
+    def _room(self, pairs: int) -> None:
+        """``indices`` grown to ``INDEX_HEADROOM`` over ``pairs`` where it holds less."""
+        if self.indices.shape[0] < pairs * self.INDEX_HEADROOM:
+            self.indices = wp.zeros(int(pairs * self.INDEX_HEADROOM) + 16, dtype=wp.int32, device=self.device)
+
+    @property
+    def n_pairs(self) -> int:
+        """Pairs in the list as last built (reads the device)."""
+        return int(self.offsets[self.n_query : self.n_query + 1].numpy()[0]) if self.n_query else 0
+
+    def check(self) -> bool:
+        """Read the marks of the builds since the last check (one wait for the device) and grow the room
+        where the last build left less than ``GROWTH`` (neighbours) or ``INDEX_HEADROOM`` (pairs) of it;
+        True where a build overflowed, so that its points lost neighbours (the next build then sizes the
+        room as a first build does)."""
+        overflowed = bool(self.overflow.numpy().any())
+        self.overflow.zero_()
+        if overflowed:
+            self.width = 0  # the next build sizes the room again
+        elif self.n_query:
+            largest = int(self.counts.numpy()[: self.n_query].max())
+            if largest * self.GROWTH > self.width:
+                self.width = int(largest * self.GROWTH) + 1
+            self._room(self.n_pairs)
+        return overflowed
 
     def to_lists(self) -> list[np.ndarray]:
         """Host copy, one sorted index array per query point (for tests and probes)."""
