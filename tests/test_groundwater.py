@@ -219,10 +219,6 @@ def test_flow_phase_input_errors():
     with pytest.raises(SceneError, match=r"phases.seepage.steady"):
         text = DAM.format(dx=0.25, alpha=30.0)
         parse_scene(text[: text.index("[[reservoirs]]")] + text[text.index("[output]"):])
-    with pytest.raises(SceneError, match=r"boundaries.top.drainage.time_function.*flow phases only"):
-        parse_scene(COLUMN.format(duration=1.0).replace(
-            "pore_pressure = 0.0 }", 'pore_pressure = 0.0, time_function = { kind = "ramp", duration = 1.0 } }')
-            + '\n[[phases]]\nname = "after"\nkind = "dynamic"\nduration = 0.1\n')  # fmt: skip
 
 
 def test_a_reservoir_that_touches_no_surface_is_refused(tmp_path):

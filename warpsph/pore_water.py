@@ -58,34 +58,71 @@ class PoreWaterModel:
     surface_water: SurfaceWater
     """The water against the free surfaces: the hydrostatic reference and the reservoirs."""
 
-    def drained_plane_particles(self, model, factors=None):
-        """(on, value, plane): the owned particles lying on drained planes (int32 mask), their
-        prescribed excess pore pressure [Pa] and the plane's index (−1 off them), with each plane's
-        pressure and head multiplied by ``factors`` (P,) (its time function's value; default 1)."""
+    def drained_plane_particles(self, model) -> tuple[np.ndarray, np.ndarray]:
+        """(on, plane): the owned particles lying on drained planes (int32 mask) and the plane's index
+        (−1 off them)."""
         m = model
         n = m.particle_count
-        on, val, plane = np.zeros(n, np.int32), np.zeros(n), np.full(n, -1, np.int32)
+        on, plane = np.zeros(n, np.int32), np.full(n, -1, np.int32)
         drainage = self.plane_drainage.numpy()
-        pressure, head = self.plane_pressure.numpy(), self.plane_head.numpy()
-        if factors is not None:
-            pressure, head = pressure * factors, head * factors
         x = m.particle_x0
-        rho_w = self.material_water_density.numpy()[m.particle_material.numpy()[:n]]
-        hydro = self.hydrostatic(x, rho_w)
-        g = float(np.linalg.norm(self.gravity))
         axes = m.plane_axis.numpy()
         for a, planes in zip(m.constraint_particle.numpy(), m.constraint_planes.numpy().reshape(-1, 3)):
             for p in planes[planes >= 0]:
                 if drainage[p] == 1 and self.planes[p].covers(x[a : a + 1], axes[p], EXTENT_TOLERANCE * m.dx)[0]:
-                    total = pressure[p] if np.isnan(head[p]) else rho_w[a] * g * (head[p] - x[a, 1])
-                    on[a], val[a], plane[a] = 1, total - hydro[a], p
-        return on, val, plane
+                    on[a], plane[a] = 1, p
+        return on, plane
 
     def hydrostatic(self, positions: np.ndarray, water_density: np.ndarray) -> np.ndarray:
         """p_h = ρ_w b·(x − x_wt) [Pa] at (N,3) positions (host)."""
         b = np.asarray(self.gravity, dtype=float)
         shifted = positions - np.array([0.0, self.water_table, 0.0])
         return water_density * (shifted @ b)
+
+
+class PlaneDrainage:
+    """The planes' prescribed pore pressure, head and inflow at a time: the pore-water model's, each
+    multiplied by its drainage ``time_function`` f(t) of the phase's time (docs/scenes.md, *Drainage*),
+    as device arrays the kernels read and as the excess pore pressure held on the owned particles that
+    lie on drained planes (``on``, ``plane``, ``value``)."""
+
+    def __init__(self, model):
+        pw = model.pore
+        self.functions = [d.time_function for d in pw.planes]
+        self.changing = any(f.kind != "constant" for f in self.functions)
+        """Whether a plane's values change in time (else :meth:`set_time` never changes them)."""
+        self._base = [a.numpy().copy() for a in (pw.plane_pressure, pw.plane_head, pw.plane_inflow)]
+        self.pressure, self.head, self.inflow = (wp.clone(a) for a in (pw.plane_pressure, pw.plane_head,
+                                                                      pw.plane_inflow))  # fmt: skip
+        self.on, self.plane = pw.drained_plane_particles(model)
+        rows = np.flatnonzero(self.on)
+        x = model.particle_x0[rows]
+        rho_w = pw.material_water_density.numpy()[model.particle_material.numpy()[rows]]
+        self._rows, self._y = rows, x[:, 1]
+        self._rho_g = rho_w * float(np.linalg.norm(pw.gravity))
+        self._hydrostatic = pw.hydrostatic(x, rho_w)
+        self.factors = np.ones(max(len(self.functions), 1))
+        self.value = self._values()
+        """(n,) the excess pore pressure [Pa] held on the particles on drained planes (0 off them)."""
+
+    def _values(self) -> np.ndarray:
+        pressure, head = (base * self.factors for base in self._base[:2])
+        p = self.plane[self._rows]
+        total = np.where(np.isnan(head[p]), pressure[p], self._rho_g * (head[p] - self._y))
+        value = np.zeros(len(self.on))
+        value[self._rows] = total - self._hydrostatic
+        return value
+
+    def set_time(self, t: float) -> bool:
+        """The values at time ``t`` [s]; whether they changed since the last call."""
+        factors = np.array([f(t) for f in self.functions] or [1.0])
+        if np.array_equal(factors, self.factors):
+            return False
+        self.factors = factors
+        for array, base in zip((self.pressure, self.head, self.inflow), self._base):
+            array.assign(base * factors)
+        self.value = self._values()
+        return True
 
 
 def build_pore_water(scene: Scene, planes_drainage: list, top: float, vec3, grow: float, device) -> PoreWaterModel:

@@ -138,14 +138,11 @@ def validate_scene(scene: Scene) -> None:
         _check_phases(scene)
     else:
         _validate_one_phase(scene)
-    _check_changing_water(scene)
+    _check_partly_saturated(scene)
 
 
-def _check_changing_water(scene: Scene) -> None:
-    """Drainage time functions act in flow phases: drainage that changes in time may not reach a
-    phase that would hold it constant."""
-    kinds = [p.kind for p in scene.phases] or ["dynamic"]
-    mechanical = [k for k in kinds if k != "k0" and k not in IMPLICIT_PHASE_KINDS]
+def _check_partly_saturated(scene: Scene) -> None:
+    """Partially saturated soil moves its water in flow phases: a coupled mechanical phase may not meet it."""
     coupled = [p for p in scene.phases
                if p.kind in ("equilibrium", "safety", "dynamic") and p.pore_pressure == "coupled"]  # fmt: skip
     if not scene.phases and scene.effects.pore_water:
@@ -155,12 +152,6 @@ def _check_changing_water(scene: Scene) -> None:
             raise SceneError(f"materials.{name}.retention", "partially saturated soil moves its water in flow phases; "
                              f"a mechanical phase with it holds the pore pressure: set pore_pressure = \"fixed\" "
                              f"in phase {show(coupled[0].name)}")  # fmt: skip
-    for section in ("boundaries", "loads"):
-        for i, face in enumerate(getattr(scene, section)):
-            if face.drainage.time_function.kind != "constant" and mechanical:
-                raise SceneError(f"{item_key(section, face.name, i)}.drainage.time_function",
-                                 f'drainage changes in time in flow phases only; this scene also has a '
-                                 f'{show(mechanical[0])} phase, where it would be held constant')  # fmt: skip
 
 
 def _validate_one_phase(scene: Scene) -> None:

@@ -295,8 +295,8 @@ class Drainage:
     inflow: float = 0.0
     extent: Region | None = None
     time_function: TimeFunction = field(default_factory=TimeFunction)
-    """Flow phases: the pore pressure, head and inflow are multiplied by f(t) of the phase's time (a
-    head table of a rising river is ``head`` = its highest level with values ≤ 1)."""
+    """The pore pressure, head and inflow are multiplied by f(t) of the phase's time, in every phase
+    kind (a head table of a rising river is ``head`` = its highest level with values ≤ 1)."""
 
     def covers(self, points: np.ndarray, axis: int, tol: float = 0.0) -> np.ndarray:
         """Mask of the (N,3) ``points`` of a face normal to ``axis`` where this condition holds (its

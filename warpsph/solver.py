@@ -229,6 +229,7 @@ class Solver:
         if si.particle_plastic_strain is not None:
             self.boundaries.copy_to_real_ghosts(si.particle_plastic_strain)
         if self.projection is not None:
+            self.projection.set_time(t)
             self.projection.update_ghosts(si.particle_q, pressure, homogeneous=False)
         self.boundaries.update_virtual_ghosts(si.virtual_q, self.virtual_v, self.virtual_stress, si.virtual_density,
                                               self.virtual_p)
@@ -323,6 +324,7 @@ class Solver:
 
     def _project(self, si: State, so: State, t: float, dt: float) -> None:
         """Pressure projection, then the prescribed velocities again (the correction moves them)."""
+        self.projection.set_time(t + dt)
         self.projection.project(si, so, dt)
         self.boundaries.prescribe(so.particle_q, so.particle_v, so.particle_stress, so.particle_density,
                                   self.energy.ledger, so.particle_pore_pressure)

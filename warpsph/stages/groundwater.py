@@ -9,6 +9,7 @@ import warp as wp
 
 from warpsph.launching import launch_rows
 from warpsph.model import Model, State
+from warpsph.pore_water import PlaneDrainage
 from warpsph.scene import STANDARD_GRAVITY
 from warpsph.stages.groundwater_kernels import groundwater_kernels
 from warpsph.stages.linear_solve import LinearSolver
@@ -43,7 +44,6 @@ class GroundwaterFlow:
         self.projection = solver.projection
         self.lists = solver.real_to_real
         self.reservoirs = reservoirs
-        self.planes = pw.planes
         x = state.particle_q.numpy()[:n].astype(np.float64)  # the fixed skeleton's positions
         rho_w = pw.material_water_density.numpy()[m.particle_material.numpy()[:n]]
         self.rho_g = rho_w * float(np.linalg.norm(pw.gravity))
@@ -72,10 +72,9 @@ class GroundwaterFlow:
         self.discharge_rows = zeros(n * self.n_tags)
         size = max(1, self.lists.indices.shape[0])
         self.weight, self.column = zeros(size), zeros(size, wp.int32)
-        self.plane_pressure, self.plane_head, self.plane_inflow = (
-            wp.clone(pw.plane_pressure), wp.clone(pw.plane_head), wp.clone(pw.plane_inflow))  # fmt: skip
-        self.drained = drained_planes(model, solver.boundaries.plane_position, self.plane_pressure, self.plane_head,
-                                      self.plane_inflow)  # fmt: skip
+        self.drainage = PlaneDrainage(model)
+        self.drained = drained_planes(model, solver.boundaries.plane_position, self.drainage.pressure,
+                                      self.drainage.head, self.drainage.inflow)  # fmt: skip
         """The planes with the flow's own prescribed values, as the kernels take them."""
         self.linear = LinearSolver(n, dev, m.scene.pressure)
         self.seeping = (self.surface & (self._excess() + self.hydro >= 0.0)).astype(np.int32)
@@ -104,13 +103,9 @@ class GroundwaterFlow:
     # -- conditions -----------------------------------------------------------------------------
     def _conditions(self, t: float) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
         """Rows held at a value at time t: (dirichlet, value, tag, candidate seepage rows)."""
-        m, pw = self.model, self.model.pore
-        factors = np.array([d.time_function(t) for d in self.planes] or [1.0])
-        self.plane_pressure.assign(pw.plane_pressure.numpy() * factors)
-        self.plane_head.assign(pw.plane_head.numpy() * factors)
-        self.plane_inflow.assign(pw.plane_inflow.numpy() * factors)
-        on, value, tag = pw.drained_plane_particles(m, factors if self.planes else None)
-        dirichlet = on.copy()
+        m = self.model
+        self.drainage.set_time(t)
+        dirichlet, value, tag = self.drainage.on.copy(), self.drainage.value.copy(), self.drainage.plane.copy()
         seepage_tag = m.plane_count
         free = self.surface.copy()
         for r, (res, inside) in enumerate(zip(self.reservoirs, self.in_reservoir)):

@@ -10,6 +10,7 @@ import warp as wp
 from warpsph.errors import SimulationError
 from warpsph.launching import launch, launch_rows
 from warpsph.model import PLANE_TRACTION, Model
+from warpsph.pore_water import PlaneDrainage
 from warpsph.stages.linear_solve import LinearSolver
 from warpsph.stages.pressure_kernels import (
     DRAINED_SURFACE_EIGENVALUE,
@@ -44,9 +45,10 @@ class PressureProjection:
 
     def __init__(self, model: Model, solver):
         self.model, self.solver = model, solver
-        pw = model.pore
-        self.planes = drained_planes(model, solver.boundaries.plane_position, pw.plane_pressure, pw.plane_head,
-                                     pw.plane_inflow)  # fmt: skip
+        self.drainage = PlaneDrainage(model)
+        """The planes' drained values at the step's time (:meth:`set_time`)."""
+        self.planes = drained_planes(model, solver.boundaries.plane_position, self.drainage.pressure,
+                                     self.drainage.head, self.drainage.inflow)  # fmt: skip
         """The planes as the kernels take them (the boundaries' positions, moved in place with the planes)."""
         m, dev = model, model.device
         n, ne, nv = m.particle_count, m.particle_capacity, m.virtual_capacity
@@ -79,7 +81,7 @@ class PressureProjection:
         self.near_surface = wp.zeros(n, dtype=wp.int32, device=dev)
         self.linear = LinearSolver(n, dev, settings)
         self.weight = self.column = None
-        on, val, _plane = m.pore.drained_plane_particles(m)
+        on = self.drainage.on
         self.on_drained = wp.array(on, dtype=wp.int32, device=dev)
         self.face_factor = wp.array(self._face_factor(), dtype=f64, device=dev)
         image = self._momentum_image(on)
@@ -91,7 +93,7 @@ class PressureProjection:
         self.damps_everywhere = settings.interior_stabilisation > 0.0 or (
             settings.stabilisation > 0.0 and self._low_permeability_weight() > NEGLIGIBLE_WEIGHT)
         """Whether the roughness is computed at every particle, not only near free surfaces and sealed faces."""
-        self.drained_value = wp.array(val, dtype=f64, device=dev)
+        self.drained_value = wp.array(self.drainage.value, dtype=f64, device=dev)
         self.iterations: list[int] = []
         self.residuals: list[float] = []
         self.failures = 0
@@ -159,6 +161,12 @@ class PressureProjection:
                 pw.material_permeability, m.spec.vec3(*pw.gravity), wp.float64(pw.water_table), int(homogeneous),
                 int(momentum), p],
                m.device)  # fmt: skip
+
+    def set_time(self, t: float) -> None:
+        """The drained planes' values at time ``t`` [s] of the phase, where a drainage time function
+        changes them."""
+        if self.drainage.changing and self.drainage.set_time(t):
+            self.drained_value.assign(self.drainage.value)
 
     # -- the projection ---------------------------------------------------------------------------
     def project(self, si, so, dt: float) -> None:
