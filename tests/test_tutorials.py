@@ -40,7 +40,14 @@ def test_first_model(tmp_path, capsys):
     assert phase["outcome"] == "converged" and phase["criterion"] < 1e-5
     assert abs(phase["steps"] - 1340) <= 40  # quoted: 1340
     quoted("first_model.md", "converged after 1340 steps")
+    assert len(phase["energy_warnings"]) == 1
+    quoted("first_model.md", f"warpsph: warning: phase gravity: {phase['energy_warnings'][0]}")
     results = warpsph.load_results(tmp_path / "run" / "results.h5")
+    t, error = results.series("energy_error")
+    peak = int(np.argmax(error))
+    assert t[peak] == pytest.approx(0.15, abs=0.005) and error[peak] == pytest.approx(546, abs=1)
+    assert error[peak:].min() == pytest.approx(447, abs=1) and error[-1] == pytest.approx(479.2, abs=0.1)
+    quoted("first_model.md", "546 J/m at t = 0.15 s, then between 447 and 479 J/m")
     settlement = results.series("crest_settlement")[1][-1]
     reaction = results.series("base_reaction")[1][-1]
     assert 1e3 * settlement == pytest.approx(12.36, abs=0.01)
@@ -67,6 +74,8 @@ def test_slope_factor_of_safety(tmp_path):
     gravity, safety, runout = summary.phases[1:]
     assert gravity["outcome"] == "converged" and abs(gravity["steps"] - 670) <= 20
     quoted(page, "converged after 670 steps")
+    for phase in (gravity, runout):
+        quoted(page, *(f"warpsph: warning: phase {phase['name']}: {line}" for line in phase["energy_warnings"]))
     assert safety["criterion"] == pytest.approx(1.43, abs=0.01)
     trials = {round(factor, 3): outcome == 1 for factor, outcome, *_ in safety["trials"]}
     assert trials[1.422] and not trials[1.438]

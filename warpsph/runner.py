@@ -483,7 +483,8 @@ class Run:
         the command line prints them): ``{"energy": ..., "energy_warnings": [...]}``, the balance None
         for a phase that keeps none and for a safety phase (each trial's is with the trial's frame)."""
         balance = self.balance_since_start() if self.phase.kind != "safety" else None
-        return {"energy": balance, "energy_warnings": balance_warnings(balance) if balance is not None else []}
+        warnings = balance_warnings(balance, self.model.spec.dim) if balance is not None else []
+        return {"energy": balance, "energy_warnings": warnings}
 
     def height(self, positions: np.ndarray) -> float:
         """The bodies' extent along gravity [m] (their largest extent without gravity)."""

@@ -25,6 +25,7 @@ from warpsph.phases.limit_equilibrium import critical_circle, ground, strength
 from warpsph.phases.search import FactorSearch, reduced_strength
 from warpsph.phases.staging import CONVERGED, NOT_CONVERGED
 from warpsph.scene import FAILURE_DISPLACEMENT
+from warpsph.stages.energy import energy_unit
 
 
 STANDS, FAILS, UNDECIDED = 1, 0, -1
@@ -93,7 +94,7 @@ def limit_equilibrium_line(values) -> str:
 def trial_lines(trials, dim: int) -> list[str]:
     """One line per row of a safety phase's ``trials`` (:attr:`TrialOutcome.row`) in a ``dim``-D run: the
     factor, the outcome and why, with the ratio, kinetic energy, displacement and steps it was decided on."""
-    unit, lines = {1: "J/m²", 2: "J/m"}.get(dim, "J"), []
+    unit, lines = energy_unit(dim), []
     for factor, outcome, ratio, steps, moved, energy, why in trials:
         said = {STANDS: "stands", FAILS: "fails", UNDECIDED: "undecided"}[int(outcome)]
         lines.append(f"  trial F = {factor:.4g}: {said}, {WHY[int(why)]} (ratio {ratio:.3g}, kinetic energy "

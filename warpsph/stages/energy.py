@@ -276,16 +276,26 @@ def energy_made(balance: dict[str, float], since: float, start: np.ndarray) -> f
     return max(balance["error"] - since, 0.0) / scale if scale > 0.0 else 0.0
 
 
-def balance_warnings(balance: dict[str, float]) -> list[str]:
-    """One line per energy check the balance fails: stabilisation energy above
-    ``STABILISATION_WARNING`` of the strain energy's change, an error above ``BALANCE_WARNING``."""
-    out = []
+def energy_unit(dim: int) -> str:
+    """The unit of an energy of a ``dim``-D run: per unit of the unmodelled extent in 1D and 2D."""
+    return {1: "J/m²", 2: "J/m"}.get(dim, "J")
+
+
+def balance_warnings(balance: dict[str, float], dim: int = 3) -> list[str]:
+    """One line per energy check the balance of a ``dim``-D run fails: stabilisation energy above
+    ``STABILISATION_WARNING`` of the strain energy's change, an error above ``BALANCE_WARNING``; each
+    says what to read next (docs/method.md, *Energy balance*)."""
+    out, unit = [], energy_unit(dim)
     stabilisation, strain = abs(balance["stabilisation_dissipation"]), abs(balance["strain"])
     if stabilisation > STABILISATION_WARNING * strain and stabilisation > 0.0:
-        out.append(f"the stabilisation's energy {balance['stabilisation_dissipation']:.4g} J is "
+        out.append(f"the stabilisation's energy {balance['stabilisation_dissipation']:.4g} {unit} is "
                    f"{stabilisation / max(strain, 1e-300):.3g} times the strain energy's change "
-                   f"(more than {STABILISATION_WARNING:g})")  # fmt: skip
+                   f"(more than {STABILISATION_WARNING:g}): the surface band's traction term and the filters did "
+                   f"that work; the series energy_stabilisation_dissipation shows when (docs/method.md, Energy "
+                   f"balance)")  # fmt: skip
     if balance["error_ratio"] > BALANCE_WARNING:
-        out.append(f"the energy balance misses by {balance['error']:.4g} J, {100 * balance['error_ratio']:.3g} % "
-                   f"of the energy turned over (more than {100 * BALANCE_WARNING:g} %)")  # fmt: skip
+        out.append(f"the energy balance misses by {balance['error']:.4g} {unit}, {100 * balance['error_ratio']:.3g} % "
+                   f"of the energy turned over (more than {100 * BALANCE_WARNING:g} %): a miss that grows step "
+                   f"after step is an instability, one made once as the phase starts is not; the series "
+                   f"energy_error shows which (docs/method.md, Energy balance)")  # fmt: skip
     return out

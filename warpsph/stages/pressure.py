@@ -237,11 +237,13 @@ class PressureProjection:
         if not rel <= self.settings.tolerance:
             self.failures += 1
             message = (f"pressure solve missed its tolerance {self.settings.tolerance:g}: relative residual "
-                       f"{rel:.3g} after {iterations} iterations ({self.settings.solver})")  # fmt: skip
+                       f"{rel:.3g} after {iterations} iterations ({self.settings.solver}); raise "
+                       f"pressure.max_iterations (now {self.settings.max_iterations})")  # fmt: skip
             if self.settings.on_failure == "stop":
                 raise SimulationError(message)
             if self.failures == 1:
-                warnings.warn(message + " (further misses are counted in run.json)", stacklevel=2)
+                warnings.warn(message + ', or set pressure.on_failure = "stop" to stop the run at such a miss '
+                              "(further misses are counted in run.json)", stacklevel=2)  # fmt: skip
         if self.has_sealed_faces:
             launch_rows(self.k["extrapolate_to_sealed_faces"], n,
                         [*fit_args, self.sealed_face, 0, self.dirichlet, x, self.dp], dev)
