@@ -25,7 +25,8 @@ from warpsph.validation.safety import strength_reduction_phases, undrained_clay
 from warpsph import Material, Probe, Region, Scene, SceneError
 from warpsph.phases import FactorSearch, reduced_strength
 from warpsph.phases.base import CHECK_EVERY
-from warpsph.phases.safety import CAPPED, COLLAPSING, DISPLACED, TrialJudge, resolution_warnings
+from warpsph.phases.safety import (CAPPED, COLLAPSING, DISPLACED, TrialJudge, refined_line, refinement_warnings,
+                                   resolution_warnings)
 from warpsph.scene import Phase
 
 G = 9.81
@@ -350,3 +351,38 @@ def test_cut_too_weak_to_stand_reports_that_gravity_loading_did_not_converge(tmp
     print(f"\ngravity loading: {gravity['outcome']} after {gravity['steps']} steps, ratio {gravity['criterion']:.3g}")
     assert summary.status == "not converged" and [p["name"] for p in summary.phases] == ["initial", "gravity"]
     assert gravity["outcome"] == "not converged" and gravity["criterion"] > 1e-5
+
+
+def test_a_refined_search_reports_the_factor_at_half_the_spacing(tmp_path):
+    """``refine``: the cut at Δx = 0.5 m (4 spacings high, to ± 0.1) runs again at 0.25 m in
+    refined_safety/; both factors lie within the limit-analysis bounds (± the search's tolerance), and
+    the second is the one its own run directory records."""
+    phases = strength_reduction_phases(2000, 0.1)
+    phases[-1] = dataclasses.replace(phases[-1], refine=True)
+    summary = warpsph.run_scene(vertical_cut(0.5, phases), tmp_path, device="cpu")
+    safety = summary.phases[-1]
+    (factor, resolution), coarse = safety["refined"], safety["criterion"]
+    print(f"\nF = {coarse:.4f} at dx = 0.5 m, {factor:.4f} ± {resolution:.4f} at 0.25 m")
+    for f in (coarse, factor):
+        assert BOUNDS[0] - 0.1 <= f <= BOUNDS[1] + 0.1
+    finer = warpsph.load_results(tmp_path / "refined_safety" / "results.h5")
+    assert finer.phases[-1]["criterion"] == factor and finer.phases[-1]["resolution"] == resolution
+    assert np.array_equal(warpsph.load_results(tmp_path / "results.h5").phases[-1]["refined"], [factor, resolution])
+    assert any("when the spacing halved" in w for w in safety["warnings"]) == (abs(factor / coarse - 1) > 0.02)
+    line = refined_line(coarse, safety["refined"], 0.5, "safety")
+    assert line.startswith("  at half the spacing (simulation.dx = 0.25 m, in refined_safety/): factor of safety")
+    assert f"{100 * (factor / coarse - 1):+.1f} % from {coarse:.4g}" in line
+
+
+def test_refine_is_for_safety_phases():
+    phases = strength_reduction_phases(100, 0.01)
+    phases[1] = dataclasses.replace(phases[1], refine=True)
+    with pytest.raises(SceneError, match=r"^phases.gravity.refine: only a safety phase refines its search"):
+        vertical_cut(0.5, phases)
+
+
+def test_a_factor_that_moves_when_the_spacing_halves_is_warned_about():
+    (line,) = refinement_warnings(1.693, [1.893, 0.01], 1.0)
+    assert "moved by +11.8 % when the spacing halved (more than 2 %)" in line and "simulation.dx = 0.5 m" in line
+    assert refinement_warnings(1.43, [1.43, 0.01], 1.0) == [] and refinement_warnings(1.43, [], 1.0) == []
+    assert refinement_warnings(1.43, [float("nan")] * 2, 1.0) == []

@@ -105,7 +105,7 @@ def _run(args) -> int:
         raise SceneError("--end-time", f"must be > 0, got {args.end_time}")
     from tqdm import tqdm
 
-    from warpsph.phases.safety import limit_equilibrium_line, trial_lines
+    from warpsph.phases.safety import limit_equilibrium_line, refined_line, trial_lines
     from warpsph.runner import Run
 
     out = args.out or Path("runs") / scene.name
@@ -156,6 +156,7 @@ def _run(args) -> int:
             bar.write(f"phase {p['name']} ({p['kind']}): {p['outcome']} after {p['steps']} steps{reached}",
                       file=sys.stdout)  # fmt: skip
             for line in [limit_equilibrium_line(p.get("limit_equilibrium")),
+                         refined_line(p["criterion"], p.get("refined"), scene.simulation.dx, p["name"]),
                          *trial_lines(p.get("trials", []), scene.simulation.dim)]:
                 if line:
                     bar.write(line, file=sys.stdout)
@@ -172,7 +173,8 @@ def _run(args) -> int:
           f"{s.frames} frames")  # fmt: skip
     if s.status == "interrupted":
         return _fail(EXIT_INTERRUPTED, s.message)
-    print(f"results in {out}: results.h5 (warpsph.load_results), results.xdmf (ParaView's XDMF Reader)"
+    print(f"results in {out}: results.h5 (warpsph.load_results)"
+          + (", results.xdmf (ParaView's XDMF Reader)" if scene.output.xdmf else "")
           + (", particles.usdc (usdview, Omniverse)" if scene.output.usd else ""))
     if s.status == "not converged" and run.phase.kind == "safety":
         return _fail(EXIT_NOT_CONVERGED, f"phase {s.phases[-1]['name']} found no factor of safety between 0.05 and "

@@ -79,7 +79,7 @@ class RunSummary:
     """What stopped a run that did not finish (an interruption, an instability, an output error),
     and where its checkpoint is."""
     phases: list = field(default_factory=list)
-    """One {name, kind, outcome, criterion, resolution, limit_equilibrium, failing_mass, warnings, steps,
+    """One {name, kind, outcome, criterion, resolution, limit_equilibrium, refined, failing_mass, warnings, steps,
     trials, energy, energy_warnings} per phase run (energy: the balance at the phase's end, docs/method.md
     *Energy balance*)."""
 
@@ -519,6 +519,7 @@ class Run:
                 self.summary.phases.append({"name": record.name, "kind": record.kind, "outcome": outcome,
                                             "criterion": record.criterion, "resolution": record.resolution,
                                             "limit_equilibrium": record.limit_equilibrium,
+                                            "refined": record.refined,
                                             "failing_mass": record.failing_mass,
                                             "warnings": self.calculation.warnings(record),
                                             "steps": record.last_step - record.first_step, "trials": record.trials,

@@ -215,6 +215,9 @@ def _check_phases(scene: Scene) -> None:
         check_range(f"{key}.factor_max", phase.factor_max, Interval(1.0, lo_closed=True))
         check_range(f"{key}.failure_displacement", phase.failure_displacement, NON_NEGATIVE)
         check_range(f"{key}.min_failing_mass", phase.min_failing_mass, Interval(1.0, lo_closed=True))
+        if phase.refine and phase.kind != "safety":
+            raise SceneError(f"{key}.refine",
+                             f"only a safety phase refines its search; this phase is {show(phase.kind)}")
         check_choice(f"{key}.pore_pressure", phase.pore_pressure, ("coupled", "fixed"))
         if phase.pore_pressure == "fixed":
             _needs_pore_water(f"{key}.pore_pressure", scene.effects, '"fixed" pore pressures ')

@@ -547,3 +547,6 @@ class Phase:
     min_failing_mass: float = 8.0
     """Safety: the phase warns when its failing mass is fewer particle spacings high than this [-] (≥ 1):
     the factor of safety is then not converged in the spacing."""
+    refine: bool = False
+    """Safety: also run the search at half the particle spacing (the scene's phases up to this one, rebuilt
+    at Δx/2 in ``RUN_DIR/refined_NAME``) and report both factors and their difference."""

@@ -81,6 +81,20 @@ def resolution_warnings(failing_mass: float, dx: float, fewest: float = 8.0) -> 
             f"{dx * failing_mass / fewest:.2g} m or less (now {dx:g} m)"]  # fmt: skip
 
 
+REFINED_CHANGE = 0.02
+"""A factor of safety that moves by more than this fraction when the spacing halves is not converged in it."""
+
+
+def refinement_warnings(criterion: float, refined, dx: float) -> list[str]:
+    """A line when the factor at half the spacing ``dx`` [m] (``refined`` [factor, resolution]) differs
+    from ``criterion`` by more than ``REFINED_CHANGE``."""
+    if not refined or not abs(refined[0] / criterion - 1.0) > REFINED_CHANGE:
+        return []
+    return [f"the factor of safety moved by {100 * (refined[0] / criterion - 1.0):+.1f} % when the spacing halved "
+            f"(more than {100 * REFINED_CHANGE:g} %): it is not converged in the spacing; run at simulation.dx = "
+            f"{dx / 2:g} m with refine again"]  # fmt: skip
+
+
 def limit_equilibrium_line(values) -> str:
     """The line that reports a safety phase's ``limit_equilibrium`` [Bishop, Spencer, x, y, r] ("" without one)."""
     if not values or not math.isfinite(values[0]):
@@ -89,6 +103,19 @@ def limit_equilibrium_line(values) -> str:
     other = f"Spencer {spencer:.3f}" if math.isfinite(spencer) else "Spencer not found"
     return (f"  limit equilibrium at the phase's start: Bishop {bishop:.3f}, {other} on the critical circle centred "
             f"at ({x:.2f}, {y:.2f}) m, radius {r:.2f} m")  # fmt: skip
+
+
+def refined_line(criterion: float, refined, dx: float, name: str) -> str:
+    """The line that reports a safety phase's ``refined`` [factor, resolution] at Δx/2 beside its own
+    ``criterion`` at ``dx`` [m] ("" without one)."""
+    if not refined:
+        return ""
+    where = f"at half the spacing (simulation.dx = {dx / 2:g} m, in refined_{name}/)"
+    factor, resolution = refined
+    if not math.isfinite(factor):
+        return f"  {where}: the search did not bracket the factor of safety"
+    return (f"  {where}: factor of safety {factor:.4g} ± {resolution:.2g}, "
+            f"{100 * (factor / criterion - 1):+.1f} % from {criterion:.4g}")  # fmt: skip
 
 
 def trial_lines(trials, dim: int) -> list[str]:
@@ -155,7 +182,7 @@ class SafetyAnalysis(Equilibrium):
     the phase's start state with c, tan φ and tan ψ divided by the trial factor F; a trial stands
     when it converges within the phase's step cap, and fails at the cap or once a particle has
     moved farther than the failure displacement. Each trial's last state is written as a frame
-    (attributes ``factor`` and ``converged``), the state is then put back to the phase's start and
+    (attributes ``factor`` and ``outcome``), the state is then put back to the phase's start and
     checkpointed, so the next phase starts from the unreduced state. With trial workers (the run's
     ``trial_workers`` or ``scheduler``) the trials of a round run at once on Dask, one per worker,
     each from the phase's start checkpoint (:func:`remote_trial`); their steps count as if run in
@@ -196,6 +223,8 @@ class SafetyAnalysis(Equilibrium):
                     raise Stopped()
                 run.stop_if_interrupted(checkpoint=False)
         record.criterion, record.resolution = search.result, search.resolution
+        if phase.refine and not record.refined:
+            record.refined = self.refined()
         fields = weakest[1].fields if weakest[1] is not None else {}
         if "position" in fields:
             record.failing_mass = self.mechanism_height(fields["position"]) / run.model.dx
@@ -203,6 +232,27 @@ class SafetyAnalysis(Equilibrium):
         write_safety_figure(run.out / f"safety_{phase.name}.svg", fields.get("position"), fields.get("plastic_strain"),
                             run.model.dx, circle, record.trials, record.criterion)  # fmt: skip
         return CONVERGED if search.bracketed else NOT_CONVERGED
+
+    def refined(self) -> list[float]:
+        """[factor, resolution] of the same search at half the spacing: the scene's phases up to this one
+        rebuilt at Δx/2 and run in ``RUN_DIR/refined_NAME`` ([nan, nan] where that search did not bracket
+        the factor, or the run guard stopped it)."""
+        run = self.run
+        scene = copy.deepcopy(run.scene)
+        scene.simulation.dx /= 2.0
+        scene.phases = scene.phases[: run.phase_index + 1]
+        scene.phases[-1].refine = False
+        scene.output.usd = False
+        finer = type(run)(scene.validate(), run.out / f"refined_{self.phase.name}", device=run.device,
+                          precision=run.precision, overwrite=True, trial_workers=run.trial_workers,
+                          scheduler=run.scheduler)  # fmt: skip
+        try:
+            last = finer.run().phases[-1]
+        except SimulationError:
+            return [math.nan, math.nan]
+        if last["outcome"] != CONVERGED:
+            return [math.nan, math.nan]
+        return [last["criterion"], last["resolution"]]
 
     def mechanism_height(self, positions: np.ndarray) -> float:
         """The height [m] of the mechanism of a trial that ended at ``positions`` (N,3), the state being at
@@ -213,7 +263,9 @@ class SafetyAnalysis(Equilibrium):
         return self.run.height(start[moved > 0.5 * moved.max()]) + self.run.model.dx
 
     def warnings(self, record) -> list[str]:
-        return resolution_warnings(record.failing_mass, self.run.model.dx, self.phase.min_failing_mass)
+        dx = self.run.model.dx
+        return (resolution_warnings(record.failing_mass, dx, self.phase.min_failing_mass)
+                + refinement_warnings(record.criterion, record.refined, dx))  # fmt: skip
 
     def limit_equilibrium(self, record) -> None:
         """Bishop's and Spencer's factors on the critical slip circle of the phase's start state, into

@@ -43,6 +43,9 @@ class PhaseRecord:
     failing_mass: float = float("nan")
     """Safety: the height of the weakest failing trial's mechanism in particle spacings (its particles
     that moved more than half the most, their extent along gravity, plus one spacing)."""
+    refined: list = field(default_factory=list)
+    """Safety with ``refine``: [the factor of safety, its resolution] of the same search at half the
+    particle spacing (nan where that search did not bracket it)."""
     limit_equilibrium: list = field(default_factory=list)
     """Safety: limit equilibrium at the phase's start, [Bishop's factor, Spencer's, the critical circle's
     centre x, y and radius [m]] (nan where not found; :mod:`~warpsph.phases.limit_equilibrium`)."""
