@@ -111,3 +111,8 @@ def test_consolidation_phase_input_errors():
     scene.phases[0].duration = 0.0
     with pytest.raises(SceneError, match=r"phases.consolidation.duration"):
         scene.validate()
+    scene = consolidation_scene(1.0)  # the water has nowhere to go: nothing would consolidate
+    scene.loads[0].drainage = Drainage()
+    scene.pressure.free_surface = "impermeable"
+    with pytest.raises(SceneError, match=r"^phases.consolidation.kind: .*nowhere for it to go"):
+        scene.validate()

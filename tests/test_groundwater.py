@@ -14,6 +14,8 @@
 """
 
 import math
+import subprocess
+import sys
 
 import h5py
 import numpy as np
@@ -222,9 +224,14 @@ def test_flow_phase_input_errors():
 
 
 def test_a_reservoir_that_touches_no_surface_is_refused(tmp_path):
+    """By the run, and by ``warpsph validate`` before it, with one line naming the key."""
     text = DAM.format(dx=0.25, alpha=30.0).replace("max = [3, 10, 1]", "max = [-0.5, 10, 1]")
     with pytest.raises(SceneError, match=r"reservoirs.upstream.region.*touches no surface"):
-        run_scene(parse_scene(text, name="dam"), tmp_path)
+        run_scene(parse_scene(text, name="dam"), tmp_path / "run")
+    (tmp_path / "dam.toml").write_text('name = "dam"\n' + text)
+    result = subprocess.run([sys.executable, "-m", "warpsph", "validate", str(tmp_path / "dam.toml"), "--no-estimate"],
+                            capture_output=True, text=True)  # fmt: skip
+    assert result.returncode == 2 and "reservoirs.upstream.region: contains no free-surface particle" in result.stderr
 
 
 def test_a_flow_phase_resumes_bit_identical(tmp_path):

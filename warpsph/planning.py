@@ -66,10 +66,22 @@ class RunPlan:
         return out + self.notes
 
 
+def check_reservoirs_reach(model, state) -> None:
+    """Refuse, as the run would at its first step, a reservoir whose region holds no free-surface particle
+    of ``model`` at ``state`` (:func:`~warpsph.stages.surface_water.wetted_regions`)."""
+    from warpsph.solver import Solver
+
+    if model.pore is None or not model.pore.reservoirs:
+        return
+    solver = Solver(model)
+    solver.fit_geometry(state)
+    solver.projection.check_reservoirs(state)
+
+
 def plan(scene: Scene, device: str | None = None, timed: bool = True) -> RunPlan:
     """Build every phase's model (which checks what its particles show, :mod:`warpsph.scene_reach`: the
     loads, regions and probes of each phase against its bodies; a staged scene's point and region probes
-    against every phase's particles), time a few steps of the first mechanical phase (unless not
+    against every phase's particles; the reservoirs against each phase's free surfaces), time a few steps of the first mechanical phase (unless not
     ``timed``) and count the rest."""
     from warpsph.builder import build
     from warpsph.scene_reach import check_probes_reach
@@ -83,6 +95,7 @@ def plan(scene: Scene, device: str | None = None, timed: bool = True) -> RunPlan
     if scene.phases:  # every phase's model, one at a time, each built with its checks
         for index, phase in enumerate(phases):
             phase_model, phase_state = build(phase_scene(scene, index), device=device, staged=True)
+            check_reservoirs_reach(phase_model, phase_state)
             counts[phase.name] = phase_model.particle_count
             points.append(phase_model.particle_x0)
             if index == timed_index:
@@ -90,6 +103,7 @@ def plan(scene: Scene, device: str | None = None, timed: bool = True) -> RunPlan
         check_probes_reach(scene, points)  # the point and region probes against every phase's particles
     else:
         model, state = build(scene, device=device)
+        check_reservoirs_reach(model, state)
     first = phase_scene(scene, timed_index) if scene.phases else scene
     dt = first.time_step
     seconds_per_step = 0.0

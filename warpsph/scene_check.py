@@ -280,6 +280,11 @@ def _check_flow_phase(phase: Phase, key: str, scene: Scene) -> None:
     check_range(f"{key}.time_step", phase.time_step, NON_NEGATIVE)
     check_range(f"{key}.frames", phase.frames, Interval(1.0, lo_closed=True, hi_closed=True))
     drained = any(face.drainage.kind != "impermeable" for face in [*scene.boundaries, *scene.loads])
+    if (phase.kind == "consolidation" and not drained and not scene.reservoirs
+            and scene.pressure.free_surface == "impermeable"):  # fmt: skip
+        raise SceneError(f"{key}.kind", "a consolidation phase drains the pore water, and this scene has nowhere for it "
+                         "to go: add a drained boundary or load, a reservoir, or set pressure.free_surface = "
+                         '"drained"')  # fmt: skip
     if phase.steady and not drained and not scene.reservoirs:
         raise SceneError(f"{key}.steady", "a steady flow needs water to come from somewhere: a drained or inflow "
                          "boundary, or a reservoir; with seepage faces alone the soil drains to nothing")  # fmt: skip

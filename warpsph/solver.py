@@ -388,6 +388,12 @@ class Solver:
         m = self.model
         self.real_to_real.build(si.particle_q, m.particle_count, si.particle_q, m.particle_total)
 
+    def fit_geometry(self, state: State) -> None:
+        """Ghosts, neighbour lists and corrections at the positions of ``state`` (a fixed skeleton's,
+        or a state about to be checked), with no step taken."""
+        for stage in ("ghosts", "neighbours", "corrections"):
+            self.stages[self.stage_names.index(stage)].run(state, state, 0.0, self.model.scene.time_step)
+
     # -- driver -----------------------------------------------------------------------------------
     @property
     def stage_names(self) -> list[str]:

@@ -81,7 +81,7 @@ class FixedStressSplit:
                 self.collapsed = True
                 break
             flow.state = state
-            flow.update_geometry(self.solver, state)
+            self.solver.fit_geometry(state)
             saturation = flow.saturation_field()
             storage = saturation * saturation * self.compliance
             held = state.particle_pore_pressure.numpy()[:n].astype(np.float64)

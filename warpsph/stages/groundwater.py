@@ -40,7 +40,7 @@ class GroundwaterFlow:
         m, pw, dev = model, model.pore, model.device
         n = m.particle_count
         self.k = groundwater_kernels(m.spec)
-        self.update_geometry(solver, state)
+        solver.fit_geometry(state)
         self.projection = solver.projection
         self.lists = solver.real_to_real
         self.reservoirs = reservoirs
@@ -89,12 +89,6 @@ class GroundwaterFlow:
         load, seepage face and reservoir that passes water (negative: into it)."""
         self.storage_rate = 0.0
         """The last step's rate of growth of the water held in the body [m³/s, per metre in 2D]."""
-
-    @staticmethod
-    def update_geometry(solver, state: State) -> None:
-        """Ghosts, neighbour lists and corrections of ``solver`` at the positions of ``state``."""
-        for stage in ("ghosts", "neighbours", "corrections"):
-            solver.stages[solver.stage_names.index(stage)].run(state, state, 0.0, solver.model.scene.time_step)
 
     def _excess(self) -> np.ndarray:
         """A host copy of the owned particles' excess pore pressure (on the CPU ``numpy()`` is a view)."""

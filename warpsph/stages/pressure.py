@@ -207,7 +207,7 @@ class PressureProjection:
         if not self._surface_checked:
             self._surface_checked = True
             self._warn_unstable_free_surface(si, dt)
-            self._check_reservoirs(si)
+            self.check_reservoirs(si)
         # the arguments of the pressure fits (``fitted_pressure``) ahead of each kernel's own
         fit_args = [h, n, nl.offsets, nl.indices, si.particle_q, m.particle_origin, m.particle_mass,
                     si.particle_density, m.particle_material, pw.material_permeability, pw.material_water_density,
@@ -262,7 +262,7 @@ class PressureProjection:
         eigenvalue = self.solver.real_fits.smallest_eigenvalue.numpy()[:n]
         return (eigenvalue < DRAINED_SURFACE_EIGENVALUE) & (self.on_drained.numpy()[:n] == 0)
 
-    def _check_reservoirs(self, si) -> None:
+    def check_reservoirs(self, si) -> None:
         """Refuse a reservoir whose region holds no free-surface particle: its water would do nothing."""
         m = self.model
         positions = si.particle_q.numpy()[: m.particle_count].astype(np.float64)
