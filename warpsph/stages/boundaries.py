@@ -52,7 +52,10 @@ def plane_functions(spec: Spec):
 def planes_struct(spec: Spec):
     """The ``Planes`` @wp.struct of ``spec``'s precision: the boundary planes as the ghost and prescription
     kernels take them, (P,) each: axis, current position [m], outward sign, kind, prescribed vector (a
-    velocity [m/s] or a traction [Pa]), extent lo and hi [m], and the load factor f(t) of the time."""
+    velocity [m/s] or a traction [Pa]), extent lo and hi [m], the load factor f(t) of the time, and with
+    pore water the drainage kind (0 impermeable, 1 drained, 2 inflow), its extent drained_lo and
+    drained_hi [m], and the drained pressure [Pa], head [m] (NaN: none) and inflow [m/s] at the time
+    (:meth:`Boundaries.with_drainage`)."""
     real, vec3 = spec.real, spec.vec3
 
     @wp.struct
@@ -65,6 +68,12 @@ def planes_struct(spec: Spec):
         lo: wp.array(dtype=vec3)
         hi: wp.array(dtype=vec3)
         factor: wp.array(dtype=real)
+        drainage: wp.array(dtype=wp.int32)
+        drained_lo: wp.array(dtype=vec3)
+        drained_hi: wp.array(dtype=vec3)
+        pressure: wp.array(dtype=wp.float64)
+        head: wp.array(dtype=wp.float64)
+        inflow: wp.array(dtype=wp.float64)
 
     return Planes
 
@@ -96,9 +105,6 @@ def _kernels(spec: Spec):
         water_density: wp.array(dtype=wp.float64),
         water_table: real,
         pore: wp.array(dtype=wp.float64),
-        drainage: wp.array(dtype=wp.int32),
-        drained_lo: wp.array(dtype=vec3),
-        drained_hi: wp.array(dtype=vec3),
         origin: wp.array(dtype=vec3),
         q: wp.array(dtype=vec3),
         v: wp.array(dtype=vec3),
@@ -147,7 +153,7 @@ def _kernels(spec: Spec):
                         # an impermeable face carries the load with the pore water: σ′n = t̄ + p n; a
                         # drained face is in contact with water at its own pressure, so σ′n = t̄
                         p_face = real(0.0)
-                        if drainage_here(p, origin[src], m, drainage, drained_lo, drained_hi) != 1:
+                        if drainage_here(p, origin[src], m, planes.drainage, planes.drained_lo, planes.drained_hi) != 1:
                             p_face = pore_pressure_at(src, q[src], pore, material, water_density, gravity,
                                                       water_table)  # fmt: skip
                         s[m, m] = s[m, m] + two * p_face
@@ -166,9 +172,6 @@ def _kernels(spec: Spec):
         water_density: wp.array(dtype=wp.float64),
         water_table: real,
         pore: wp.array(dtype=wp.float64),
-        drainage: wp.array(dtype=wp.int32),
-        drained_lo: wp.array(dtype=vec3),
-        drained_hi: wp.array(dtype=vec3),
         origin: wp.array(dtype=vec3),
         q: wp.array(dtype=vec3),
         v: wp.array(dtype=vec3),
@@ -204,7 +207,7 @@ def _kernels(spec: Spec):
                         s[k, m] = s[m, k]
                     if wp.static(pore_water):
                         # as for the ghosts: only an impermeable face shares its load
-                        if drainage_here(p, origin[a], m, drainage, drained_lo, drained_hi) != 1:
+                        if drainage_here(p, origin[a], m, planes.drainage, planes.drained_lo, planes.drained_hi) != 1:
                             s[m, m] = s[m, m] + pore_pressure_at(a, q[a], pore, material, water_density, gravity,
                                                                  water_table)  # fmt: skip
         mat = material[a]
@@ -280,6 +283,19 @@ class Boundaries:
         p.axis, p.position, p.sign, p.kind = model.plane_axis, self.plane_position, model.plane_sign, model.plane_kind
         p.vector, p.lo, p.hi = model.plane_vector, model.plane_extent_lo, model.plane_extent_hi
         p.factor = self.plane_factor
+        if model.pore is not None:
+            p.drainage, p.drained_lo, p.drained_hi = (model.pore.plane_drainage, model.pore.plane_drained_lo,
+                                                      model.pore.plane_drained_hi)  # fmt: skip
+
+    def with_drainage(self, drainage) -> object:
+        """The planes as the pore-water kernels take them: :attr:`planes` with the drained values of
+        ``drainage`` (a :class:`~warpsph.pore_water.PlaneDrainage`, whose arrays it refers to)."""
+        struct = planes_struct(self.model.spec)
+        planes = struct()
+        for name in struct.vars:
+            setattr(planes, name, getattr(self.planes, name))
+        planes.pressure, planes.head, planes.inflow = drainage.pressure, drainage.head, drainage.inflow
+        return planes
 
     def set_time(self, t: float) -> None:
         """Evaluate every load's time function at ``t`` [s] (a no-op if already there)."""
@@ -309,17 +325,13 @@ class Boundaries:
         return [m.spec.vec3(*m.gravity), material, m.pore.material_water_density, m.spec.real(m.pore.water_table),
                 pore]  # fmt: skip
 
-    def _drainage_args(self):
-        pw = self.model.pore
-        return [None] * 3 if pw is None else [pw.plane_drainage, pw.plane_drained_lo, pw.plane_drained_hi]
-
     def update_real_ghosts(self, q, v, stress, density, pore=None) -> None:
         """Ghost entries of the real set from their sources (``pore``: their excess pore pressure)."""
         m = self.model
         update_ghosts, *_ = _kernels(m.spec)
         launch(update_ghosts, m.particle_ghost_count,
                [m.particle_count, m.particle_ghost_source, m.particle_ghost_planes, self.planes,
-                *self._water_args(m.particle_material, pore), *self._drainage_args(), m.particle_origin, q, v, stress,
+                *self._water_args(m.particle_material, pore), m.particle_origin, q, v, stress,
                 density],
                m.device)  # fmt: skip
 
@@ -329,7 +341,7 @@ class Boundaries:
         update_ghosts, *_ = _kernels(m.spec)
         launch(update_ghosts, m.virtual_ghost_count,
                [m.virtual_count, m.virtual_ghost_source, m.virtual_ghost_planes, self.planes,
-                *self._water_args(m.virtual_material, pore), *self._drainage_args(), m.virtual_origin, q, v, stress,
+                *self._water_args(m.virtual_material, pore), m.virtual_origin, q, v, stress,
                 density],
                m.device)  # fmt: skip
 
@@ -347,5 +359,5 @@ class Boundaries:
         _, on_planes, *_ = _kernels(m.spec)
         launch(on_planes, m.constraint_count,
                [m.constraint_particle, m.constraint_planes, self.planes,
-                *self._water_args(m.particle_material, pore), *self._drainage_args(), m.particle_origin, q, v, stress,
+                *self._water_args(m.particle_material, pore), m.particle_origin, q, v, stress,
                 m.particle_mass, density, m.material_lambda, m.material_shear, ledger], m.device)  # fmt: skip

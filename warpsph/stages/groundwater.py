@@ -13,7 +13,6 @@ from warpsph.pore_water import PlaneDrainage
 from warpsph.scene import STANDARD_GRAVITY
 from warpsph.stages.groundwater_kernels import groundwater_kernels
 from warpsph.stages.linear_solve import LinearSolver
-from warpsph.stages.pressure_kernels import drained_planes
 from warpsph.stages.surface_water import wetted_regions
 
 MAX_ITERATIONS = 40
@@ -73,8 +72,7 @@ class GroundwaterFlow:
         size = max(1, self.lists.indices.shape[0])
         self.weight, self.column = zeros(size), zeros(size, wp.int32)
         self.drainage = PlaneDrainage(model)
-        self.drained = drained_planes(model, solver.boundaries.plane_position, self.drainage.pressure,
-                                      self.drainage.head, self.drainage.inflow)  # fmt: skip
+        self.drained = solver.boundaries.with_drainage(self.drainage)
         """The planes with the flow's own prescribed values, as the kernels take them."""
         self.linear = LinearSolver(n, dev, m.scene.pressure)
         self.seeping = (self.surface & (self._excess() + self.hydro >= 0.0)).astype(np.int32)

@@ -11,7 +11,8 @@ from warpsph.sph.kernels import smoothing_functions
 from warpsph.sph.spec import Spec
 from warpsph.stages.boundaries import plane_functions
 from warpsph.stages.linear_solve import apply_row
-from warpsph.stages.pressure_kernels import ETA, drained_planes_struct, fold_conditions, held_row, pressure_kernels
+from warpsph.stages.boundaries import planes_struct
+from warpsph.stages.pressure_kernels import ETA, fold_conditions, held_row, pressure_kernels
 
 
 @functools.cache
@@ -23,7 +24,7 @@ def groundwater_kernels(spec: Spec):
     _W, grad_W = smoothing_functions(spec)
     _traction, drainage_here = plane_functions(spec)
     ghost_affine = pressure_kernels(spec)["ghost_affine"]
-    DrainedPlanes = drained_planes_struct(spec)
+    Planes = planes_struct(spec)
 
     @wp.func
     def hydrostatic(x: vec3, water_density: f64, gravity: vec3, water_table: f64):
@@ -53,7 +54,7 @@ def groundwater_kernels(spec: Spec):
         a: int, j: int, n: int, h: real, scale: f64, q: wp.array(dtype=vec3), origin: wp.array(dtype=vec3),
         mass: wp.array(dtype=real), density: wp.array(dtype=real), material: wp.array(dtype=wp.int32),
         permeability: wp.array(dtype=f64), relative: wp.array(dtype=f64), ghost_source: wp.array(dtype=wp.int32),
-        ghost_chain: wp.array(dtype=wp.vec3i), planes: DrainedPlanes,
+        ghost_chain: wp.array(dtype=wp.vec3i), planes: Planes,
         water_density: wp.array(dtype=f64), gravity: vec3, water_table: f64,
     ):  # fmt: skip
         """(col, w, s, c, plane) of row a's neighbour j: the pair's Darcy weight V_a V_j κ_aj m_aj with
@@ -79,7 +80,7 @@ def groundwater_kernels(spec: Spec):
             for i in range(3):
                 pl = chain[i]
                 if pl >= 0 and plane < 0:
-                    if drainage_here(pl, where, planes.axis[pl], planes.drainage, planes.lo, planes.hi) != 0:
+                    if drainage_here(pl, where, planes.axis[pl], planes.drainage, planes.drained_lo, planes.drained_hi) != 0:
                         plane = pl
         k_a = permeability[material[a]]
         k_j = permeability[mat_j]
@@ -119,7 +120,7 @@ def groundwater_kernels(spec: Spec):
         porosity: wp.array(dtype=f64), p_iter: wp.array(dtype=f64), p_start: wp.array(dtype=f64),
         coupling_storage: wp.array(dtype=f64), coupling_source: wp.array(dtype=f64),
         ghost_source: wp.array(dtype=wp.int32), ghost_chain: wp.array(dtype=wp.vec3i),
-        planes: DrainedPlanes, water_density: wp.array(dtype=f64), gravity: vec3, water_table: f64,
+        planes: Planes, water_density: wp.array(dtype=f64), gravity: vec3, water_table: f64,
         dirichlet: wp.array(dtype=wp.int32), value: wp.array(dtype=f64), face_factor: wp.array(dtype=f64),
         weight: wp.array(dtype=f64), column: wp.array(dtype=wp.int32), diag: wp.array(dtype=f64),
         rhs: wp.array(dtype=f64),
@@ -154,7 +155,7 @@ def groundwater_kernels(spec: Spec):
         porosity: wp.array(dtype=f64), p_iter: wp.array(dtype=f64), p_start: wp.array(dtype=f64),
         coupling_storage: wp.array(dtype=f64), coupling_source: wp.array(dtype=f64),
         ghost_source: wp.array(dtype=wp.int32), ghost_chain: wp.array(dtype=wp.vec3i),
-        planes: DrainedPlanes, water_density: wp.array(dtype=f64), gravity: vec3, water_table: f64,
+        planes: Planes, water_density: wp.array(dtype=f64), gravity: vec3, water_table: f64,
         dirichlet: wp.array(dtype=wp.int32), face_factor: wp.array(dtype=f64), tag: wp.array(dtype=wp.int32),
         n_tags: int, p: wp.array(dtype=f64), released: wp.array(dtype=f64), discharge: wp.array(dtype=f64),
         stored: wp.array(dtype=f64),

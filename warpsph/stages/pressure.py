@@ -18,7 +18,6 @@ from warpsph.stages.pressure_kernels import (
     faded_by_draining,
     laplacian_scale,
     lattice_morris_sum,
-    drained_planes,
     pressure_kernels,
 )
 from warpsph.stages.surface_water import wetted_regions
@@ -47,8 +46,7 @@ class PressureProjection:
         self.model, self.solver = model, solver
         self.drainage = PlaneDrainage(model)
         """The planes' drained values at the step's time (:meth:`set_time`)."""
-        self.planes = drained_planes(model, solver.boundaries.plane_position, self.drainage.pressure,
-                                     self.drainage.head, self.drainage.inflow)  # fmt: skip
+        self.planes = solver.boundaries.with_drainage(self.drainage)
         """The planes as the kernels take them (the boundaries' positions, moved in place with the planes)."""
         m, dev = model, model.device
         n, ne, nv = m.particle_count, m.particle_capacity, m.virtual_capacity

@@ -13,7 +13,7 @@ from warpsph.model import PLANE_TRACTION
 from warpsph.sph.kernels import kernel_derivative, smoothing_functions
 from warpsph.sph.operators import fit_parts, operator_functions
 from warpsph.sph.spec import Spec
-from warpsph.stages.boundaries import plane_functions
+from warpsph.stages.boundaries import plane_functions, planes_struct
 from warpsph.stages.surface_water import SurfaceWater, reservoir_pressure, water_against_surface
 
 DRAINED_SURFACE_EIGENVALUE = 0.6
@@ -96,42 +96,6 @@ def lattice_morris_sum(kind: str, dim: int, dx: float, ratio: float) -> float:
 
 
 @functools.cache
-def drained_planes_struct(spec: Spec):
-    """The ``DrainedPlanes`` @wp.struct of ``spec``'s precision: the boundary planes as the pore-water
-    kernels take them, (P,) each: axis, current position [m], outward sign, kind, drainage kind (0
-    impermeable, 1 drained, 2 inflow) and its extent lo and hi [m], the drained pressure [Pa], head [m]
-    (NaN: none) and inflow [m/s]."""
-    real, vec3, f64 = spec.real, spec.vec3, wp.float64
-
-    @wp.struct
-    class DrainedPlanes:
-        axis: wp.array(dtype=wp.int32)
-        position: wp.array(dtype=real)
-        sign: wp.array(dtype=real)
-        kind: wp.array(dtype=wp.int32)
-        drainage: wp.array(dtype=wp.int32)
-        lo: wp.array(dtype=vec3)
-        hi: wp.array(dtype=vec3)
-        pressure: wp.array(dtype=f64)
-        head: wp.array(dtype=f64)
-        inflow: wp.array(dtype=f64)
-
-    return DrainedPlanes
-
-
-def drained_planes(model, position: wp.array, pressure: wp.array, head: wp.array, inflow: wp.array):
-    """The :func:`drained_planes_struct` of ``model``'s planes at their current ``position`` [m], with
-    these prescribed pressures, heads and inflows (the pore-water model's, or a flow phase's own)."""
-    pw = model.pore
-    planes = drained_planes_struct(model.spec)()
-    planes.axis, planes.position, planes.sign = model.plane_axis, position, model.plane_sign
-    planes.kind = model.plane_kind
-    planes.drainage, planes.lo, planes.hi = pw.plane_drainage, pw.plane_drained_lo, pw.plane_drained_hi
-    planes.pressure, planes.head, planes.inflow = pressure, head, inflow
-    return planes
-
-
-@functools.cache
 def pressure_kernels(spec: Spec):
     """The projection's Warp kernels for ``spec``, by name."""
     real, vec3 = spec.real, spec.vec3
@@ -141,7 +105,7 @@ def pressure_kernels(spec: Spec):
 
     _W, grad_W = smoothing_functions(spec)
     _traction, drainage_here = plane_functions(spec)
-    DrainedPlanes = drained_planes_struct(spec)
+    Planes = planes_struct(spec)
     zero = f64(0.0)
 
     @wp.func
@@ -158,7 +122,7 @@ def pressure_kernels(spec: Spec):
 
     @wp.func
     def ghost_affine(g: int, source: wp.array(dtype=wp.int32), chain: wp.array(dtype=wp.vec3i),
-                     q: wp.array(dtype=vec3), where: vec3, planes: DrainedPlanes,
+                     q: wp.array(dtype=vec3), where: vec3, planes: Planes,
                      water_density: f64, k: f64, gravity: vec3, water_table: f64, homogeneous: int):  # fmt: skip
         """(s, c, s_m, c_m) with p_ghost = s p_source + c for ghost g (c = 0 when ``homogeneous``);
         each plane drains (odd parity) where the initial position ``where`` lies in its drained extent.
@@ -177,7 +141,7 @@ def pressure_kernels(spec: Spec):
             p = on[i]
             if p >= 0:
                 m = planes.axis[p]
-                kind = drainage_here(p, where, m, planes.drainage, planes.lo, planes.hi)
+                kind = drainage_here(p, where, m, planes.drainage, planes.drained_lo, planes.drained_hi)
                 traction = planes.kind[p] == PLANE_TRACTION
                 if kind == 1:
                     s = -s
@@ -206,7 +170,7 @@ def pressure_kernels(spec: Spec):
     @wp.kernel(enable_backward=False, module="unique")
     def pressure_ghosts(
         n_owned: int, source: wp.array(dtype=wp.int32), chain: wp.array(dtype=wp.vec3i), q: wp.array(dtype=vec3),
-        origin: wp.array(dtype=vec3), material: wp.array(dtype=wp.int32), planes: DrainedPlanes,
+        origin: wp.array(dtype=vec3), material: wp.array(dtype=wp.int32), planes: Planes,
         water_density: wp.array(dtype=f64), permeability: wp.array(dtype=f64), gravity: vec3, water_table: f64,
         homogeneous: int, momentum: int, p: wp.array(dtype=f64),
     ):  # fmt: skip
@@ -342,7 +306,7 @@ def pressure_kernels(spec: Spec):
                    origin: wp.array(dtype=vec3), material: wp.array(dtype=wp.int32),
                    permeability: wp.array(dtype=f64), water_density: wp.array(dtype=f64), gravity: vec3,
                    ghost_source: wp.array(dtype=wp.int32), ghost_chain: wp.array(dtype=wp.vec3i),
-                   q: wp.array(dtype=vec3), planes: DrainedPlanes,
+                   q: wp.array(dtype=vec3), planes: Planes,
                    water_table: f64):  # fmt: skip
         """(1, p_j) if neighbour j takes part in the roughness fit of particle a, else (0, 0): owned
         particles off the Dirichlet rows, and the ghosts of such particles across planes that mirror
@@ -387,7 +351,7 @@ def pressure_kernels(spec: Spec):
         q: wp.array(dtype=vec3), origin: wp.array(dtype=vec3), mass: wp.array(dtype=real),
         density: wp.array(dtype=real), material: wp.array(dtype=wp.int32), permeability: wp.array(dtype=f64),
         water_density: wp.array(dtype=f64), gravity: vec3, ghost_source: wp.array(dtype=wp.int32),
-        ghost_chain: wp.array(dtype=wp.vec3i), planes: DrainedPlanes, water_table: f64,
+        ghost_chain: wp.array(dtype=wp.vec3i), planes: Planes, water_table: f64,
         dirichlet: wp.array(dtype=wp.int32), p: wp.array(dtype=f64),
     ):  # fmt: skip
         """(Πp [Pa], corrected, found): the linear fit of p at particle a over the neighbours
@@ -440,7 +404,7 @@ def pressure_kernels(spec: Spec):
             q: wp.array(dtype=vec3), origin: wp.array(dtype=vec3), mass: wp.array(dtype=real),
             density: wp.array(dtype=real), material: wp.array(dtype=wp.int32), permeability: wp.array(dtype=f64),
             water_density: wp.array(dtype=f64), gravity: vec3, ghost_source: wp.array(dtype=wp.int32),
-            ghost_chain: wp.array(dtype=wp.vec3i), planes: DrainedPlanes, water_table: f64,
+            ghost_chain: wp.array(dtype=wp.vec3i), planes: Planes, water_table: f64,
             selected: wp.array(dtype=wp.int32), everywhere: int, dirichlet: wp.array(dtype=wp.int32),
             p: wp.array(dtype=f64), out: wp.array(dtype=f64),
         ):  # fmt: skip
@@ -479,7 +443,7 @@ def pressure_kernels(spec: Spec):
         permeability: wp.array(dtype=f64), inv_biot: wp.array(dtype=f64),
         water_density: wp.array(dtype=f64), gravity: vec3, v_star: wp.array(dtype=vec3),
         div_v_star: wp.array(dtype=f64), p_old: wp.array(dtype=f64), ghost_source: wp.array(dtype=wp.int32),
-        ghost_chain: wp.array(dtype=wp.vec3i), planes: DrainedPlanes, water_table: f64,
+        ghost_chain: wp.array(dtype=wp.vec3i), planes: Planes, water_table: f64,
         dirichlet: wp.array(dtype=wp.int32), value: wp.array(dtype=f64),
         face_factor: wp.array(dtype=f64), momentum_image: wp.array(dtype=f64), eigenvalue: wp.array(dtype=real),
         exterior_threshold: real, lattice_sum: f64, rough: wp.array(dtype=f64), near_surface: wp.array(dtype=wp.int32),
