@@ -19,6 +19,7 @@ from warpsph.initial_stress import geostatic_stress, geostatic_unit_weight
 from warpsph.lattice import fill_body, fill_cells, lattice_codes
 from warpsph.environment import default_device, init_warp
 from warpsph.model import PLANE_FIXED, PLANE_SLIP, PLANE_TRACTION, PLANE_VELOCITY, Model, State
+from warpsph.physics.elastic import elastic_struct
 from warpsph.physics.plasticity import material_struct, viscoplastic_material
 from warpsph.pore_water import build_pore_water
 from warpsph.errors import SceneError
@@ -119,6 +120,16 @@ def plastic_materials(spec: Spec, materials, device: str) -> wp.array:
             dilatancy=math.radians(mat.dilatancy_angle), exponent=mat.rate_exponent,
         ))  # fmt: skip
     return wp.array(structs, dtype=material_struct(spec), device=device)
+
+
+def elastic_materials(spec: Spec, materials, arr):
+    """The :func:`~warpsph.physics.elastic.elastic_struct` of ``materials``, its arrays made by ``arr``."""
+    npr = np.float64 if spec.precision == "float64" else np.float32
+    elastic = elastic_struct(spec)()
+    elastic.lam = arr(np.array([m.lame_lambda for m in materials], npr), spec.real)
+    elastic.shear = arr(np.array([m.shear_modulus for m in materials], npr), spec.real)
+    elastic.wave_speed = arr(np.array([m.p_wave_speed for m in materials], npr), spec.real)
+    return elastic
 
 
 def _check_drained_planes(scene: Scene, planes, on_plane: np.ndarray, points: np.ndarray) -> None:
@@ -250,9 +261,7 @@ def build(scene: Scene, device: str | None = None, precision: str | None = None,
         virtual_material=arr(ext(np.array([body_mat[b] for b in virt_body], np.int32), vg_src), wp.int32),
         virtual_ghost_source=arr(vg_src, wp.int32),
         virtual_ghost_planes=arr(vg_chain, wp.vec3i, (0, 3)),
-        material_lambda=arr(np.array([m.lame_lambda for m in mats], npr), real),
-        material_shear=arr(np.array([m.shear_modulus for m in mats], npr), real),
-        material_wave_speed=arr(np.array([m.p_wave_speed for m in mats], npr), real),
+        material_elastic=elastic_materials(spec, mats, arr),
         plane_count=len(planes),
         plane_axis=arr(np.array([p[1] for p in planes], np.int32), wp.int32),
         plane_position=arr(np.array([p[2] for p in planes], npr), real),

@@ -67,12 +67,9 @@ class Model:
     virtual_ghost_source: wp.array
     virtual_ghost_planes: wp.array
 
-    material_lambda: wp.array
-    """(n_materials,) Lamé λ [Pa]."""
-    material_shear: wp.array
-    """(n_materials,) shear modulus G [Pa]."""
-    material_wave_speed: wp.array
-    """(n_materials,) drained P-wave speed [m/s]."""
+    material_elastic: object
+    """Per material, Lamé's λ [Pa], the shear modulus G [Pa] and the drained P-wave speed [m/s], (n_materials,)
+    each: an :func:`~warpsph.physics.elastic.elastic_struct`."""
 
     plane_count: int
     plane_axis: wp.array

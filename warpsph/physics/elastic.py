@@ -14,6 +14,21 @@ from warpsph.sph.spec import Spec
 
 
 @functools.cache
+def elastic_struct(spec: Spec):
+    """The ``ElasticMaterials`` @wp.struct of ``spec``'s precision: per material, Lamé's λ [Pa], the
+    shear modulus G [Pa] and the drained P-wave speed [m/s], as every kernel of the elastic law takes them."""
+    real = spec.real
+
+    @wp.struct
+    class ElasticMaterials:
+        lam: wp.array(dtype=real)
+        shear: wp.array(dtype=real)
+        wave_speed: wp.array(dtype=real)
+
+    return ElasticMaterials
+
+
+@functools.cache
 def elastic_functions(spec: Spec):
     """Return ``(hooke_rate, source_increment, split_velocity_gradient)`` Warp functions."""
     real, mat33 = spec.real, spec.mat33

@@ -10,7 +10,7 @@ import warp as wp
 
 from warpsph.launching import launch
 from warpsph.model import PLANE_FIXED, PLANE_SLIP, PLANE_TRACTION, PLANE_VELOCITY, Model
-from warpsph.physics.elastic import strain_energy_function
+from warpsph.physics.elastic import elastic_struct, strain_energy_function
 from warpsph.sph.spec import Spec
 from warpsph.stages.energy import BOUNDARIES
 
@@ -85,6 +85,7 @@ def _kernels(spec: Spec):
     pore_water = spec.effects.pore_water
     traction_here, drainage_here = plane_functions(spec)
     psi = strain_energy_function(spec)
+    ElasticMaterials = elastic_struct(spec)
     Planes = planes_struct(spec)
 
     @wp.func
@@ -178,8 +179,7 @@ def _kernels(spec: Spec):
         stress: wp.array(dtype=mat33),
         mass: wp.array(dtype=real),
         density: wp.array(dtype=real),
-        lam: wp.array(dtype=real),
-        shear: wp.array(dtype=real),
+        elastic: ElasticMaterials,
         ledger: wp.array2d(dtype=wp.float64),
     ):
         """The planes' values on their particles; the kinetic and elastic energy this gives a particle is
@@ -212,7 +212,8 @@ def _kernels(spec: Spec):
                                                                  water_table)  # fmt: skip
         mat = material[a]
         given = real(0.5) * mass[a] * (wp.dot(u, u) - wp.dot(v[a], v[a]))
-        given += mass[a] / density[a] * (psi(s, lam[mat], shear[mat]) - psi(stress[a], lam[mat], shear[mat]))
+        given += mass[a] / density[a] * (psi(s, elastic.lam[mat], elastic.shear[mat])
+                                         - psi(stress[a], elastic.lam[mat], elastic.shear[mat]))
         ledger[a, BOUNDARIES] += wp.float64(given)
         v[a] = u
         stress[a] = s
@@ -360,4 +361,4 @@ class Boundaries:
         launch(on_planes, m.constraint_count,
                [m.constraint_particle, m.constraint_planes, self.planes,
                 *self._water_args(m.particle_material, pore), m.particle_origin, q, v, stress,
-                m.particle_mass, density, m.material_lambda, m.material_shear, ledger], m.device)  # fmt: skip
+                m.particle_mass, density, m.material_elastic, ledger], m.device)  # fmt: skip

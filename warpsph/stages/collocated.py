@@ -12,7 +12,7 @@ import functools
 import warp as wp
 
 from warpsph.launching import launch, launch_rows
-from warpsph.physics.elastic import elastic_functions
+from warpsph.physics.elastic import elastic_functions, elastic_struct
 from warpsph.sph.kernels import smoothing_functions
 from warpsph.sph.operators import operator_functions
 from warpsph.sph.spec import Spec
@@ -32,6 +32,7 @@ def collocated_kernels(spec: Spec):
     W, grad_W = smoothing_functions(spec)
     _fit, _weights, invert_correction, smallest_eigenvalue = operator_functions(spec)
     hooke_rate, _source, split_velocity_gradient = elastic_functions(spec)
+    ElasticMaterials = elastic_struct(spec)
     zero = real(0.0)
 
     @wp.kernel(enable_backward=False, module="unique")
@@ -49,9 +50,7 @@ def collocated_kernels(spec: Spec):
         density: wp.array(dtype=real),
         mass: wp.array(dtype=real),
         material: wp.array(dtype=wp.int32),
-        lam: wp.array(dtype=real),
-        shear: wp.array(dtype=real),
-        wave_speed: wp.array(dtype=real),
+        elastic: ElasticMaterials,
         dv: wp.array(dtype=vec3),
         dstress: wp.array(dtype=mat33),
         ddensity: wp.array(dtype=real),
@@ -72,7 +71,7 @@ def collocated_kernels(spec: Spec):
         va = v[a]
         sa = stress[a]
         rho = density[a]
-        ca = wave_speed[material[a]]
+        ca = elastic.wave_speed[material[a]]
         G = mat33(zero)
         div = vec3(zero, zero, zero)
         visc = vec3(zero, zero, zero)
@@ -87,13 +86,13 @@ def collocated_kernels(spec: Spec):
             vr = wp.dot(vab, xab)
             if alpha > zero and vr < zero:
                 mu = h * vr / (wp.dot(xab, xab) + real(0.01) * h * h)
-                cbar = real(0.5) * (ca + wave_speed[material[b]])
+                cbar = real(0.5) * (ca + elastic.wave_speed[material[b]])
                 rbar = real(0.5) * (rho + density[b])
                 visc += (mass[b] * alpha * cbar * mu / rbar) * gW
         d, spin = split_velocity_gradient(G)
         mat = material[a]
         dv[a] = div / rho + gravity + visc
-        dstress[a] = hooke_rate(d, lam[mat], shear[mat]) + spin * sa - sa * spin
+        dstress[a] = hooke_rate(d, elastic.lam[mat], elastic.shear[mat]) + spin * sa - sa * spin
         ddensity[a] = -rho * wp.trace(d)
         normal = vec3(zero, zero, zero)
         e = Minv * g0
@@ -181,7 +180,7 @@ class RungeKuttaStep:
                         [real(m.h), real(sim.artificial_viscosity), m.spec.vec3(*m.gravity),
                          real(sim.free_surface_threshold), nl.offsets, nl.indices, si.particle_q, self.stage_v,
                          self.stage_stress, self.stage_density, m.particle_mass, m.particle_material,
-                         m.material_lambda, m.material_shear, m.material_wave_speed, self.rate_v, self.rate_stress,
+                         m.material_elastic, self.rate_v, self.rate_stress,
                          self.rate_density, self.surface_normal], m.device)  # fmt: skip
             last = i == len(b_coef) - 1
             a_next = 0.0 if last else a_coef[i]

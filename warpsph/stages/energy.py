@@ -13,7 +13,7 @@ import warp as wp
 
 from warpsph.launching import launch
 from warpsph.model import PLANE_SLIP, Model, State
-from warpsph.physics.elastic import strain_energy_function
+from warpsph.physics.elastic import elastic_struct, strain_energy_function
 from warpsph.sph.spec import Spec
 
 PLASTIC, PORE_WATER, VISCOUS, STABILISATION, GRAVITY, BOUNDARIES, RIGID, DAMPING = range(8)
@@ -88,6 +88,7 @@ def _boundary_kernel(spec: Spec):
 def _sum_kernel(spec: Spec):
     real, vec3, mat33 = spec.real, spec.vec3, spec.mat33
     psi = strain_energy_function(spec)
+    ElasticMaterials = elastic_struct(spec)
 
     @wp.kernel(enable_backward=False, module="unique")
     def sum_energies(
@@ -96,15 +97,15 @@ def _sum_kernel(spec: Spec):
         stress: wp.array(dtype=mat33),
         density: wp.array(dtype=real),
         material: wp.array(dtype=wp.int32),
-        lam: wp.array(dtype=real),
-        shear: wp.array(dtype=real),
+        elastic: ElasticMaterials,
         ledger: wp.array2d(dtype=wp.float64),
         sums: wp.array(dtype=wp.float64),
     ):
         a = wp.tid()
         mat = material[a]
         wp.atomic_add(sums, KINETIC, wp.float64(real(0.5) * mass[a] * wp.dot(v[a], v[a])))
-        wp.atomic_add(sums, STRAIN, wp.float64(mass[a] / density[a] * psi(stress[a], lam[mat], shear[mat])))
+        strain = psi(stress[a], elastic.lam[mat], elastic.shear[mat])
+        wp.atomic_add(sums, STRAIN, wp.float64(mass[a] / density[a] * strain))
         for c in range(CHANNELS):
             wp.atomic_add(sums, LEDGER + c, ledger[a, c])
 
@@ -143,7 +144,7 @@ class EnergyLedger:
         self._sums.zero_()
         launch(_sum_kernel(m.spec), m.particle_count,
                [m.particle_mass, state.particle_v, state.particle_stress, state.particle_density, m.particle_material,
-                m.material_lambda, m.material_shear, self.ledger, self._sums], m.device)  # fmt: skip
+                m.material_elastic, self.ledger, self._sums], m.device)  # fmt: skip
         return self._sums
 
     def sums(self, state: State) -> np.ndarray:

@@ -80,7 +80,8 @@ def groundwater_kernels(spec: Spec):
             for i in range(3):
                 pl = chain[i]
                 if pl >= 0 and plane < 0:
-                    if drainage_here(pl, where, planes.axis[pl], planes.drainage, planes.drained_lo, planes.drained_hi) != 0:
+                    axis = planes.axis[pl]
+                    if drainage_here(pl, where, axis, planes.drainage, planes.drained_lo, planes.drained_hi) != 0:
                         plane = pl
         k_a = permeability[material[a]]
         k_j = permeability[mat_j]

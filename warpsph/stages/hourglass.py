@@ -13,6 +13,7 @@ import warp as wp
 
 from warpsph.launching import launch_rows
 from warpsph.model import Model, State
+from warpsph.physics.elastic import elastic_struct
 from warpsph.sph.kernels import smoothing_functions
 from warpsph.sph.neighbours import NeighbourList
 from warpsph.sph.operators import operator_functions, used_axes_algebra
@@ -24,6 +25,7 @@ from warpsph.stages.energy import STABILISATION
 @functools.cache
 def _kernels(spec: Spec):
     real, vec3, mat33 = spec.real, spec.vec3, spec.mat33
+    ElasticMaterials = elastic_struct(spec)
     _fit, fit_weights, _unused, _eig = operator_functions(spec)
     _W, grad_W = smoothing_functions(spec)
     outer = used_axes_algebra(spec)[0]
@@ -93,7 +95,7 @@ def _kernels(spec: Spec):
     def damp_residual(
         first: int, h: real, dt: real, alpha: real, n_owned: int, offsets: wp.array(dtype=wp.int32),
         nbr: wp.array(dtype=wp.int32), q: wp.array(dtype=vec3), volume: wp.array(dtype=real),
-        mass: wp.array(dtype=real), material: wp.array(dtype=wp.int32), wave_speed: wp.array(dtype=real),
+        mass: wp.array(dtype=real), material: wp.array(dtype=wp.int32), elastic: ElasticMaterials,
         fit_c: wp.array(dtype=vec3), fit_inv_den: wp.array(dtype=real), fit_minv: wp.array(dtype=mat33),
         fit_e: wp.array(dtype=vec3), direct: wp.array(dtype=vec3), moment: wp.array(dtype=mat33),
         v_out: wp.array(dtype=vec3), ledger: wp.array2d(dtype=wp.float64),
@@ -109,7 +111,7 @@ def _kernels(spec: Spec):
                 psi, phi = fit_weights(x - q[a], h, fit_c[a], fit_inv_den[a], fit_minv[a])
                 f += (half * volume[c]) * (moment[a] * phi - psi * (moment[a] * fit_e[a]))
         before = v_out[c]
-        after = before + (dt * alpha * wave_speed[material[c]] * h / mass[c]) * f
+        after = before + (dt * alpha * elastic.wave_speed[material[c]] * h / mass[c]) * f
         v_out[c] = after
         ledger[c, STABILISATION] -= wp.float64(half * mass[c] * (wp.dot(after, after) - wp.dot(before, before)))
 
@@ -143,5 +145,5 @@ class HourglassControl:
                      si.particle_density, self.gradient, self.direct, self.moment], m.device)  # fmt: skip
         launch_rows(damp_residual, m.particle_count,
                     [real(m.h), real(dt), real(self.alpha), m.particle_count, nl.offsets, nl.indices, si.particle_q,
-                     self.volume, m.particle_mass, m.particle_material, m.material_wave_speed, *self.fits.arrays()[:4],
+                     self.volume, m.particle_mass, m.particle_material, m.material_elastic, *self.fits.arrays()[:4],
                      self.direct, self.moment, so.particle_v, self.ledger], m.device)  # fmt: skip

@@ -16,7 +16,7 @@ import functools
 import warp as wp
 
 from warpsph.launching import launch, launch_rows
-from warpsph.physics.elastic import elastic_functions, strain_energy_function
+from warpsph.physics.elastic import elastic_functions, elastic_struct, strain_energy_function
 from warpsph.physics.plasticity import material_struct, plastic_functions
 from warpsph.sph.kernels import smoothing_functions
 from warpsph.sph.operators import operator_functions, used_axes_algebra
@@ -43,6 +43,7 @@ def taylor_kernels(spec: Spec):
     shift_scaled = shifting_kernels(spec)[2]
     hooke_rate, source_increment, split_velocity_gradient = elastic_functions(spec)
     psi = strain_energy_function(spec)
+    ElasticMaterials = elastic_struct(spec)
     zero, half, one, two, two_thirds = real(0.0), real(0.5), real(1.0), real(2.0), real(2.0 / 3.0)
     share_floor = real(SURFACE_SHARE_FLOOR)
     moves = vec3(*map(real, spec.axis_mask))  # points move only along the used axes (1D shear: v_x ≠ 0)
@@ -253,8 +254,7 @@ def taylor_kernels(spec: Spec):
         virt_fit_minv: wp.array(dtype=mat33),
         virt_fit_e: wp.array(dtype=vec3),
         virt_fit_lambda: wp.array(dtype=real),
-        lam: wp.array(dtype=real),
-        shear: wp.array(dtype=real),
+        elastic: ElasticMaterials,
         virt_v_half: wp.array(dtype=vec3),
         virt_stress_half: wp.array(dtype=mat33),
         virt_q_out: wp.array(dtype=vec3),
@@ -275,6 +275,7 @@ def taylor_kernels(spec: Spec):
         i = first + wp.tid()
         x = virt_q[i]
         mat = virt_material[i]
+        lam, shear = elastic.lam[mat], elastic.shear[mat]
         rho = virt_density[i]
         body_force = skeleton_body_force(gravity, rho, water_density, mat)
         v, s, G, div, p, _band, _water = fit_fields(x, offsets[i], offsets[i + 1], nbr, real_q, real_volume,
@@ -293,13 +294,13 @@ def taylor_kernels(spec: Spec):
         if wp.static(plasticity):
             eps = fit_value(x, offsets[i], offsets[i + 1], nbr, real_q, real_volume, real_plastic_strain,
                             h, virt_fit_c[i], virt_fit_inv_den[i], virt_fit_minv[i])  # fmt: skip
-            s_trial = s + hdt * hooke_rate(d, lam[mat], shear[mat])
-            d_s, _d_eps = plastic_source(s_trial, eps, spin, hdt, lam[mat], shear[mat], plastic_material[mat])
+            s_trial = s + hdt * hooke_rate(d, lam, shear)
+            d_s, _d_eps = plastic_source(s_trial, eps, spin, hdt, lam, shear, plastic_material[mat])
             s_half, crack = tension_cutoff(s_trial + d_s, eps, plastic_material[mat])
             # the crack opened over Δt/2 by the rate d opens twice as much over the Δt the density takes
-            opening = two * crack / (lam[mat] + two_thirds * shear[mat])
+            opening = two * crack / (lam + two_thirds * shear)
         else:
-            s_half = s + hdt * hooke_rate(d, lam[mat], shear[mat]) + source_increment(s, spin, hdt)
+            s_half = s + hdt * hooke_rate(d, lam, shear) + source_increment(s, spin, hdt)
         virt_v_half[i] = v_half
         virt_stress_half[i] = s_half
         virt_rate[i] = wp.sqrt(wp.ddot(d, d))  # ‖d‖ [1/s], the rate particle shifting follows
@@ -337,9 +338,7 @@ def taylor_kernels(spec: Spec):
         stress: wp.array(dtype=mat33),
         density: wp.array(dtype=real),
         material: wp.array(dtype=wp.int32),
-        lam: wp.array(dtype=real),
-        shear: wp.array(dtype=real),
-        wave_speed: wp.array(dtype=real),
+        elastic: ElasticMaterials,
         q_out: wp.array(dtype=vec3),
         v_out: wp.array(dtype=vec3),
         stress_out: wp.array(dtype=mat33),
@@ -369,6 +368,7 @@ def taylor_kernels(spec: Spec):
         a = first + wp.tid()
         x = q[a]
         mat = material[a]
+        lam, shear = elastic.lam[mat], elastic.shear[mat]
         rho = density[a]
         body_force = skeleton_body_force(gravity, rho, water_density, mat)
         v_half, s_half, G, div, p, band, water = fit_fields(x, offsets[a], offsets[a + 1], nbr, virt_q, virt_volume,
@@ -397,18 +397,18 @@ def taylor_kernels(spec: Spec):
         s = stress[a]
         opening = zero
         if wp.static(plasticity):
-            s_trial = s + dt * hooke_rate(d, lam[mat], shear[mat])
-            d_s, d_eps = plastic_source(s_trial, plastic_strain[a], spin, dt, lam[mat], shear[mat],
+            s_trial = s + dt * hooke_rate(d, lam, shear)
+            d_s, d_eps = plastic_source(s_trial, plastic_strain[a], spin, dt, lam, shear,
                                         plastic_material[mat])  # fmt: skip
             s_new, crack = tension_cutoff(s_trial + d_s, plastic_strain[a] + d_eps, plastic_material[mat])
-            opening = crack / (lam[mat] + two_thirds * shear[mat])  # volumetric strain of the crack [-]
+            opening = crack / (lam + two_thirds * shear)  # volumetric strain of the crack [-]
             plastic_strain_out[a] = plastic_strain[a] + d_eps
         else:
-            s_new = s + dt * hooke_rate(d, lam[mat], shear[mat]) + source_increment(s, spin, dt)
+            s_new = s + dt * hooke_rate(d, lam, shear) + source_increment(s, spin, dt)
         vol = mass[a] / rho
         if wp.static(plasticity):
             # the law's work V σ̄:Δt d less the elastic energy it stores: the plastic dissipation
-            stored = psi(s_new, lam[mat], shear[mat]) - psi(s, lam[mat], shear[mat])
+            stored = psi(s_new, lam, shear) - psi(s, lam, shear)
             ledger[a, PLASTIC] += wp.float64(vol * (dt * wp.ddot(half * (s + s_new), d) - stored))
         if wp.static(pore_water):
             ledger[a, PORE_WATER] += wp.float64(vol * real(p) * dt * wp.trace(d))
@@ -421,7 +421,7 @@ def taylor_kernels(spec: Spec):
             # vⁿ the relative velocity would carry −Δt/2 times the acceleration, a drag proportional
             # to it (measured: the wave front 6 % fast with α = 0.2, at every spacing)
             va = v[a] + half * dt * (div / rho + body_force)
-            ca = wave_speed[mat]
+            ca = elastic.wave_speed[mat]
             for k in range(offsets[a], offsets[a + 1]):
                 i = nbr[k]
                 xai = x - virt_q[i]
@@ -462,8 +462,8 @@ def taylor_kernels(spec: Spec):
         stress_out[a] = s_new + d_s
         # what the filters and the shift changed of the particle's kinetic and elastic energy
         kinetic = half * mass[a] * (wp.dot(v_out[a], v_out[a]) - wp.dot(v_force, v_force))
-        elastic = vol * (psi(stress_out[a], lam[mat], shear[mat]) - psi(s_law, lam[mat], shear[mat]))
-        ledger[a, STABILISATION] -= wp.float64(kinetic + elastic)
+        strained = vol * (psi(stress_out[a], lam, shear) - psi(s_law, lam, shear))
+        ledger[a, STABILISATION] -= wp.float64(kinetic + strained)
         if own_velocity != 0:
             # the particle moves with its own velocity, the mean of vⁿ and vⁿ⁺¹ (the shift's
             # correction of the field aside): a velocity it gains also moves it
@@ -522,7 +522,7 @@ def launch_half_step(model, config, nl, si, so, dt: float, *, real_volume, real_
                  water_on_surface, nl.offsets, nl.indices, si.particle_q, real_volume, si.particle_v,
                  si.particle_stress, *real_fits.arrays(), si.virtual_q, si.virtual_density,
                  m.virtual_material, *virtual_fits.arrays(),
-                 m.material_lambda, m.material_shear, virtual_v, virtual_stress, so.virtual_q,
+                 m.material_elastic, virtual_v, virtual_stress, so.virtual_q,
                  so.virtual_density, pressure, water_density, virtual_p,
                  si.particle_plastic_strain, m.material_plasticity, virtual_rate,
                  real(1.0 if integrated_density else 0.0), surface_weight, surface_water],
@@ -543,8 +543,8 @@ def launch_full_step(model, config, nl, si, so, dt: float, *, virtual_volume, vi
                  si.virtual_q, m.virtual_mass, si.virtual_density, virtual_volume, virtual_v,
                  virtual_stress,
                  *virtual_fits.arrays()[:4], *real_fits.arrays(), si.particle_q, si.particle_v,
-                 si.particle_stress, si.particle_density, m.particle_material, m.material_lambda, m.material_shear,
-                 m.material_wave_speed, so.particle_q, so.particle_v, so.particle_stress, so.particle_density,
+                 si.particle_stress, si.particle_density, m.particle_material, m.material_elastic,
+                 so.particle_q, so.particle_v, so.particle_stress, so.particle_density,
                  virtual_p, water_density, si.particle_plastic_strain, m.material_plasticity,
                  so.particle_plastic_strain, int(config.particle_shifting > 0.0), real(config.particle_shifting),
                  real_shift,
