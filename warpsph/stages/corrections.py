@@ -19,8 +19,26 @@ from warpsph.sph.spec import Spec
 
 
 @functools.cache
-def _kernels(spec: Spec):
+def fits_struct(spec: Spec):
+    """The ``Fits`` @wp.struct of ``spec``'s precision: a point set's linear-fit data as the kernels take
+    it, (n,) each: c, 1/den, M⁻¹, e and the correction matrix's smallest eigenvalue (:class:`FitData`)."""
     real, vec3, mat33 = spec.real, spec.vec3, spec.mat33
+
+    @wp.struct
+    class Fits:
+        c: wp.array(dtype=vec3)
+        inv_den: wp.array(dtype=real)
+        minv: wp.array(dtype=mat33)
+        e: wp.array(dtype=vec3)
+        smallest_eigenvalue: wp.array(dtype=real)
+
+    return Fits
+
+
+@functools.cache
+def _kernels(spec: Spec):
+    real, vec3 = spec.real, spec.vec3
+    Fits = fits_struct(spec)
     fit_operator, _weights, _unused, smallest_eigenvalue = operator_functions(spec)
 
     @wp.kernel(enable_backward=False, module="unique")
@@ -32,20 +50,16 @@ def _kernels(spec: Spec):
         q: wp.array(dtype=vec3),
         src_q: wp.array(dtype=vec3),
         src_volume: wp.array(dtype=real),
-        fit_c: wp.array(dtype=vec3),
-        fit_inv_den: wp.array(dtype=real),
-        fit_minv: wp.array(dtype=mat33),
-        fit_e: wp.array(dtype=vec3),
-        fit_lambda: wp.array(dtype=real),
+        fit: Fits,
     ):
         i = first + wp.tid()
         c, inv_den, Minv, e, M, corrected = fit_operator(q[i], offsets[i], offsets[i + 1], nbr, src_q, src_volume,
                                                          h)  # fmt: skip
-        fit_c[i] = c
-        fit_inv_den[i] = inv_den
-        fit_minv[i] = Minv
-        fit_e[i] = e
-        fit_lambda[i] = smallest_eigenvalue(M)
+        fit.c[i] = c
+        fit.inv_den[i] = inv_den
+        fit.minv[i] = Minv
+        fit.e[i] = e
+        fit.smallest_eigenvalue[i] = smallest_eigenvalue(M)
 
     @wp.kernel(enable_backward=False, module="unique")
     def mirror_fits(
@@ -53,17 +67,13 @@ def _kernels(spec: Spec):
         source: wp.array(dtype=wp.int32),
         chain: wp.array(dtype=wp.vec3i),
         plane_axis: wp.array(dtype=wp.int32),
-        fit_c: wp.array(dtype=vec3),
-        fit_inv_den: wp.array(dtype=real),
-        fit_minv: wp.array(dtype=mat33),
-        fit_e: wp.array(dtype=vec3),
-        fit_lambda: wp.array(dtype=real),
+        fit: Fits,
     ):
         g = wp.tid()
         src = source[g]
-        c = fit_c[src]
-        e = fit_e[src]
-        Minv = fit_minv[src]
+        c = fit.c[src]
+        e = fit.e[src]
+        Minv = fit.minv[src]
         planes = chain[g]
         for k in range(3):
             p = planes[k]
@@ -75,11 +85,11 @@ def _kernels(spec: Spec):
                     if j != m:
                         Minv[m, j] = -Minv[m, j]
                         Minv[j, m] = -Minv[j, m]
-        fit_c[n_owned + g] = c
-        fit_e[n_owned + g] = e
-        fit_minv[n_owned + g] = Minv
-        fit_inv_den[n_owned + g] = fit_inv_den[src]
-        fit_lambda[n_owned + g] = fit_lambda[src]
+        fit.c[n_owned + g] = c
+        fit.e[n_owned + g] = e
+        fit.minv[n_owned + g] = Minv
+        fit.inv_den[n_owned + g] = fit.inv_den[src]
+        fit.smallest_eigenvalue[n_owned + g] = fit.smallest_eigenvalue[src]
 
     @wp.kernel(enable_backward=False, module="unique")
     def volumes(first: int, mass: wp.array(dtype=real), density: wp.array(dtype=real), volume: wp.array(dtype=real)):
@@ -104,9 +114,10 @@ class FitData:
         """(n,) vec3 e = M⁻¹ Σ V ∇W [1/m]; −e points out of a free surface."""
         self.smallest_eigenvalue = wp.zeros(count, dtype=spec.real, device=device)
         """(n,) smallest eigenvalue of the correction matrix [-] (≈1 inside, ≈0.5 on a surface)."""
-
-    def arrays(self) -> list:
-        return [self.c, self.inv_den, self.minv, self.e, self.smallest_eigenvalue]
+        self.struct = fits_struct(spec)()
+        """The arrays above as the kernels take them (:func:`fits_struct`)."""
+        for name in ("c", "inv_den", "minv", "e", "smallest_eigenvalue"):
+            setattr(self.struct, name, getattr(self, name))
 
 
 def compute_volumes(model: Model, mass, density, volume, first: int, count: int) -> None:
@@ -121,6 +132,6 @@ def compute_fit_data(model: Model, neighbours: NeighbourList, q, n_owned: int, s
     compute_fits, mirror_fits, _ = _kernels(model.spec)
     launch_rows(compute_fits, n_owned,
            [model.spec.real(model.h), neighbours.offsets, neighbours.indices, q, src_q, src_volume,
-            *fits.arrays()], model.device)  # fmt: skip
-    launch(mirror_fits, n_ghosts, [n_owned, ghost_source, ghost_planes, model.plane_axis, *fits.arrays()],
+            fits.struct], model.device)  # fmt: skip
+    launch(mirror_fits, n_ghosts, [n_owned, ghost_source, ghost_planes, model.plane_axis, fits.struct],
            model.device)

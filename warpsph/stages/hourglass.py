@@ -18,7 +18,7 @@ from warpsph.sph.kernels import smoothing_functions
 from warpsph.sph.neighbours import NeighbourList
 from warpsph.sph.operators import operator_functions, used_axes_algebra
 from warpsph.sph.spec import Spec
-from warpsph.stages.corrections import FitData, compute_fit_data
+from warpsph.stages.corrections import FitData, compute_fit_data, fits_struct
 from warpsph.stages.energy import STABILISATION
 
 
@@ -26,6 +26,7 @@ from warpsph.stages.energy import STABILISATION
 def _kernels(spec: Spec):
     real, vec3, mat33 = spec.real, spec.vec3, spec.mat33
     ElasticMaterials = elastic_struct(spec)
+    Fits = fits_struct(spec)
     _fit, fit_weights, _unused, _eig = operator_functions(spec)
     _W, grad_W = smoothing_functions(spec)
     outer = used_axes_algebra(spec)[0]
@@ -35,8 +36,7 @@ def _kernels(spec: Spec):
     def velocity_gradient(
         first: int, h: real, offsets: wp.array(dtype=wp.int32), nbr: wp.array(dtype=wp.int32),
         q: wp.array(dtype=vec3), v: wp.array(dtype=vec3), volume: wp.array(dtype=real),
-        fit_c: wp.array(dtype=vec3), fit_inv_den: wp.array(dtype=real), fit_minv: wp.array(dtype=mat33),
-        fit_e: wp.array(dtype=vec3), gradient: wp.array(dtype=mat33),
+        fit: Fits, gradient: wp.array(dtype=mat33),
     ):  # fmt: skip
         """G_a = ∇v at the real particle a (G_ij = ∂_i v_j) from the corrected fit over its real
         neighbours (itself excluded)."""
@@ -46,10 +46,10 @@ def _kernels(spec: Spec):
         G = mat33(zero)
         for k in range(offsets[a], offsets[a + 1]):
             b = nbr[k]
-            psi, phi = fit_weights(q[b] - x, h, fit_c[a], fit_inv_den[a], fit_minv[a])
+            psi, phi = fit_weights(q[b] - x, h, fit.c[a], fit.inv_den[a], fit.minv[a])
             fitted += (volume[b] * psi) * v[b]
             G += outer(volume[b] * phi, v[b])
-        gradient[a] = G - outer(fit_e[a], fitted)
+        gradient[a] = G - outer(fit.e[a], fitted)
 
     @wp.func
     def pair_residual(a: int, b: int, n_owned: int, q: wp.array(dtype=vec3), v: wp.array(dtype=vec3),
@@ -96,8 +96,7 @@ def _kernels(spec: Spec):
         first: int, h: real, dt: real, alpha: real, n_owned: int, offsets: wp.array(dtype=wp.int32),
         nbr: wp.array(dtype=wp.int32), q: wp.array(dtype=vec3), volume: wp.array(dtype=real),
         mass: wp.array(dtype=real), material: wp.array(dtype=wp.int32), elastic: ElasticMaterials,
-        fit_c: wp.array(dtype=vec3), fit_inv_den: wp.array(dtype=real), fit_minv: wp.array(dtype=mat33),
-        fit_e: wp.array(dtype=vec3), direct: wp.array(dtype=vec3), moment: wp.array(dtype=mat33),
+        fit: Fits, direct: wp.array(dtype=vec3), moment: wp.array(dtype=mat33),
         v_out: wp.array(dtype=vec3), ledger: wp.array2d(dtype=wp.float64),
     ):  # fmt: skip
         """F_c = −∂Φ/∂v_c, Φ = ½ Σ_pairs w s²: the direct force and, through each owned neighbour a's
@@ -108,8 +107,8 @@ def _kernels(spec: Spec):
         for k in range(offsets[c], offsets[c + 1]):
             a = nbr[k]
             if a < n_owned:
-                psi, phi = fit_weights(x - q[a], h, fit_c[a], fit_inv_den[a], fit_minv[a])
-                f += (half * volume[c]) * (moment[a] * phi - psi * (moment[a] * fit_e[a]))
+                psi, phi = fit_weights(x - q[a], h, fit.c[a], fit.inv_den[a], fit.minv[a])
+                f += (half * volume[c]) * (moment[a] * phi - psi * (moment[a] * fit.e[a]))
         before = v_out[c]
         after = before + (dt * alpha * elastic.wave_speed[material[c]] * h / mass[c]) * f
         v_out[c] = after
@@ -139,11 +138,11 @@ class HourglassControl:
                          m.particle_ghost_source, m.particle_ghost_planes, m.particle_ghost_count)  # fmt: skip
         launch_rows(velocity_gradient, m.particle_count,
                     [real(m.h), nl.offsets, nl.indices, si.particle_q, si.particle_v, self.volume,
-                     *self.fits.arrays()[:4], self.gradient], m.device)  # fmt: skip
+                     self.fits.struct, self.gradient], m.device)  # fmt: skip
         launch_rows(pair_terms, m.particle_count,
                     [real(m.h), m.particle_count, nl.offsets, nl.indices, si.particle_q, si.particle_v, self.volume,
                      si.particle_density, self.gradient, self.direct, self.moment], m.device)  # fmt: skip
         launch_rows(damp_residual, m.particle_count,
                     [real(m.h), real(dt), real(self.alpha), m.particle_count, nl.offsets, nl.indices, si.particle_q,
-                     self.volume, m.particle_mass, m.particle_material, m.material_elastic, *self.fits.arrays()[:4],
+                     self.volume, m.particle_mass, m.particle_material, m.material_elastic, self.fits.struct,
                      self.direct, self.moment, so.particle_v, self.ledger], m.device)  # fmt: skip

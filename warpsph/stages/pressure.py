@@ -178,13 +178,13 @@ class PressureProjection:
                                           si.particle_pore_pressure)
         nl_v = sol.virtual_to_real
         launch_rows(self.k["fit_vector_at_virtual"], m.virtual_count,
-               [h, nl_v.offsets, nl_v.indices, si.virtual_q, vf.c, vf.inv_den, vf.minv, si.particle_q,
+               [h, nl_v.offsets, nl_v.indices, si.virtual_q, vf.struct, si.particle_q,
                 m.particle_mass, si.particle_density, so.particle_v, self.virtual_v_star], dev)  # fmt: skip
         sol.boundaries.update_virtual_ghosts(si.virtual_q, self.virtual_v_star, sol.virtual_stress,
                                              si.virtual_density, sol.virtual_p)  # fmt: skip
         nl_r = sol.real_to_virtual
         launch_rows(self.k["divergence_at_real"], n,
-               [h, nl_r.offsets, nl_r.indices, si.particle_q, rf.c, rf.inv_den, rf.minv, rf.e, si.virtual_q,
+               [h, nl_r.offsets, nl_r.indices, si.particle_q, rf.struct, si.virtual_q,
                 m.virtual_mass, si.virtual_density, self.virtual_v_star, self.div_v_star], dev)  # fmt: skip
         # assemble on the real-real list
         nl = sol.real_to_real
@@ -303,11 +303,11 @@ class PressureProjection:
         rf, vf = sol.real_fits, sol.virtual_fits
         nl_v, nl_r = sol.virtual_to_real, sol.real_to_virtual
         launch_rows(self.k["fit_scalar_at_virtual"], m.virtual_count,
-               [h, nl_v.offsets, nl_v.indices, state.virtual_q, vf.c, vf.inv_den, vf.minv, state.particle_q,
+               [h, nl_v.offsets, nl_v.indices, state.virtual_q, vf.struct, state.particle_q,
                 m.particle_mass, state.particle_density, values, self.virtual_dp], dev)  # fmt: skip
         self.update_ghosts(state.virtual_q, self.virtual_dp, homogeneous=homogeneous, virtual=True, momentum=momentum)
         launch_rows(self.k["gradient_at_real"], m.particle_count,
-               [h, nl_r.offsets, nl_r.indices, state.particle_q, rf.c, rf.inv_den, rf.minv, rf.e, state.virtual_q,
+               [h, nl_r.offsets, nl_r.indices, state.particle_q, rf.struct, state.virtual_q,
                 m.virtual_mass, state.virtual_density, self.virtual_dp, self.grad], dev)  # fmt: skip
 
     def darcy_velocity(self, state) -> np.ndarray:

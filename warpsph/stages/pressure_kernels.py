@@ -14,6 +14,7 @@ from warpsph.sph.kernels import kernel_derivative, smoothing_functions
 from warpsph.sph.operators import fit_parts, operator_functions
 from warpsph.sph.spec import Spec
 from warpsph.stages.boundaries import plane_functions, planes_struct
+from warpsph.stages.corrections import fits_struct
 from warpsph.stages.surface_water import SurfaceWater, reservoir_pressure, water_against_surface
 
 DRAINED_SURFACE_EIGENVALUE = 0.6
@@ -106,6 +107,7 @@ def pressure_kernels(spec: Spec):
     _W, grad_W = smoothing_functions(spec)
     _traction, drainage_here = plane_functions(spec)
     Planes = planes_struct(spec)
+    Fits = fits_struct(spec)
     zero = f64(0.0)
 
     @wp.func
@@ -193,8 +195,7 @@ def pressure_kernels(spec: Spec):
         @wp.kernel(enable_backward=False, module="unique")
         def kernel(
             first: int, h: real, offsets: wp.array(dtype=wp.int32), nbr: wp.array(dtype=wp.int32),
-            vq: wp.array(dtype=vec3), c: wp.array(dtype=vec3), inv_den: wp.array(dtype=real),
-            minv: wp.array(dtype=wp.types.matrix((3, 3), real)), xs: wp.array(dtype=vec3), ms: wp.array(dtype=real),
+            vq: wp.array(dtype=vec3), fits: Fits, xs: wp.array(dtype=vec3), ms: wp.array(dtype=real),
             rhos: wp.array(dtype=real), values: wp.array(dtype=value_type), out: wp.array(dtype=value_type),
         ):  # fmt: skip
             i = first + wp.tid()
@@ -202,7 +203,7 @@ def pressure_kernels(spec: Spec):
             acc = value_type(real(0.0))
             for k in range(offsets[i], offsets[i + 1]):
                 b = nbr[k]
-                psi, phi = fit_weights(xs[b] - x, h, c[i], inv_den[i], minv[i])
+                psi, phi = fit_weights(xs[b] - x, h, fits.c[i], fits.inv_den[i], fits.minv[i])
                 acc += weight_type(ms[b] / rhos[b] * psi) * values[b]
             out[i] = acc
 
@@ -214,8 +215,7 @@ def pressure_kernels(spec: Spec):
     @wp.kernel(enable_backward=False, module="unique")
     def divergence_at_real(
         first: int, h: real, offsets: wp.array(dtype=wp.int32), nbr: wp.array(dtype=wp.int32), q: wp.array(dtype=vec3),
-        c: wp.array(dtype=vec3), inv_den: wp.array(dtype=real), minv: wp.array(dtype=wp.types.matrix((3, 3), real)),
-        e: wp.array(dtype=vec3), xs: wp.array(dtype=vec3), ms: wp.array(dtype=real), rhos: wp.array(dtype=real),
+        fits: Fits, xs: wp.array(dtype=vec3), ms: wp.array(dtype=real), rhos: wp.array(dtype=real),
         values: wp.array(dtype=vec3), out: wp.array(dtype=f64),
     ):  # fmt: skip
         a = first + wp.tid()
@@ -225,16 +225,15 @@ def pressure_kernels(spec: Spec):
         for k in range(offsets[a], offsets[a + 1]):
             b = nbr[k]
             vol = ms[b] / rhos[b]
-            psi, phi = fit_weights(xs[b] - x, h, c[a], inv_den[a], minv[a])
+            psi, phi = fit_weights(xs[b] - x, h, fits.c[a], fits.inv_den[a], fits.minv[a])
             fit += (vol * psi) * values[b]
             div += f64(vol * wp.dot(phi, values[b]))
-        out[a] = div - f64(wp.dot(e[a], fit))
+        out[a] = div - f64(wp.dot(fits.e[a], fit))
 
     @wp.kernel(enable_backward=False, module="unique")
     def gradient_at_real(
         first: int, h: real, offsets: wp.array(dtype=wp.int32), nbr: wp.array(dtype=wp.int32), q: wp.array(dtype=vec3),
-        c: wp.array(dtype=vec3), inv_den: wp.array(dtype=real), minv: wp.array(dtype=wp.types.matrix((3, 3), real)),
-        e: wp.array(dtype=vec3), xs: wp.array(dtype=vec3), ms: wp.array(dtype=real), rhos: wp.array(dtype=real),
+        fits: Fits, xs: wp.array(dtype=vec3), ms: wp.array(dtype=real), rhos: wp.array(dtype=real),
         values: wp.array(dtype=f64), out: wp.array(dtype=wp.vec3d),
     ):  # fmt: skip
         """∇f at real particles fitted from the virtual points' f."""
@@ -245,10 +244,10 @@ def pressure_kernels(spec: Spec):
         for k in range(offsets[a], offsets[a + 1]):
             b = nbr[k]
             vol = ms[b] / rhos[b]
-            psi, phi = fit_weights(xs[b] - x, h, c[a], inv_den[a], minv[a])
+            psi, phi = fit_weights(xs[b] - x, h, fits.c[a], fits.inv_den[a], fits.minv[a])
             fit += f64(vol * psi) * values[b]
             grad += wp.vec3d(f64(phi[0]), f64(phi[1]), f64(phi[2])) * (f64(vol) * values[b])
-        ea = e[a]
+        ea = fits.e[a]
         out[a] = grad - wp.vec3d(f64(ea[0]), f64(ea[1]), f64(ea[2])) * fit
 
     @wp.kernel(enable_backward=False, module="unique")

@@ -21,6 +21,7 @@ from warpsph.physics.plasticity import material_struct, plastic_functions
 from warpsph.sph.kernels import smoothing_functions
 from warpsph.sph.operators import operator_functions, used_axes_algebra
 from warpsph.sph.spec import Spec
+from warpsph.stages.corrections import fits_struct
 from warpsph.stages.energy import BOUNDARIES, GRAVITY, PLASTIC, PORE_WATER, STABILISATION, VISCOUS
 from warpsph.stages.shifting import shifting_kernels
 from warpsph.stages.surface_water import SurfaceWater, water_against_surface
@@ -44,6 +45,7 @@ def taylor_kernels(spec: Spec):
     hooke_rate, source_increment, split_velocity_gradient = elastic_functions(spec)
     psi = strain_energy_function(spec)
     ElasticMaterials = elastic_struct(spec)
+    Fits = fits_struct(spec)
     zero, half, one, two, two_thirds = real(0.0), real(0.5), real(1.0), real(2.0), real(2.0 / 3.0)
     share_floor = real(SURFACE_SHARE_FLOOR)
     moves = vec3(*map(real, spec.axis_mask))  # points move only along the used axes (1D shear: v_x ≠ 0)
@@ -132,8 +134,7 @@ def taylor_kernels(spec: Spec):
         x: vec3, start: int, end: int, nbr: wp.array(dtype=wp.int32), xs: wp.array(dtype=vec3),
         vols: wp.array(dtype=real), vs: wp.array(dtype=vec3),
         sigmas: wp.array(dtype=mat33), h: real, c: vec3, inv_den: real, Minv: mat33, e: vec3,
-        src_c: wp.array(dtype=vec3), src_inv_den: wp.array(dtype=real), src_minv: wp.array(dtype=mat33),
-        src_e: wp.array(dtype=vec3), in_surface_band: bool, ps: wp.array(dtype=wp.float64), mid: real,
+        src: Fits, in_surface_band: bool, ps: wp.array(dtype=wp.float64), mid: real,
         water_on_surface: real, per_share: bool, beyond_sources: real, unit_weight: vec3,
         surface_water: SurfaceWater, rho_w: real,
     ):  # fmt: skip
@@ -180,8 +181,8 @@ def taylor_kernels(spec: Spec):
                 p += wp.float64(vol * psi) * ps[b]
                 grad_p += (vol * real(ps[b])) * phi
             if in_surface_band:
-                psi_b, phi_b = fit_weights(x - xs[b], h, src_c[b], src_inv_den[b], src_minv[b])
-                surface_sum += vol * (psi_b * src_e[b] - phi_b)
+                psi_b, phi_b = fit_weights(x - xs[b], h, src.c[b], src.inv_den[b], src.minv[b])
+                surface_sum += vol * (psi_b * src.e[b] - phi_b)
                 if per_share:
                     share += vol * psi_b
         G -= outer(e, v)
@@ -241,19 +242,11 @@ def taylor_kernels(spec: Spec):
         real_volume: wp.array(dtype=real),
         real_v: wp.array(dtype=vec3),
         real_stress: wp.array(dtype=mat33),
-        real_fit_c: wp.array(dtype=vec3),
-        real_fit_inv_den: wp.array(dtype=real),
-        real_fit_minv: wp.array(dtype=mat33),
-        real_fit_e: wp.array(dtype=vec3),
-        real_fit_lambda: wp.array(dtype=real),
+        real_fit: Fits,
         virt_q: wp.array(dtype=vec3),
         virt_density: wp.array(dtype=real),
         virt_material: wp.array(dtype=wp.int32),
-        virt_fit_c: wp.array(dtype=vec3),
-        virt_fit_inv_den: wp.array(dtype=real),
-        virt_fit_minv: wp.array(dtype=mat33),
-        virt_fit_e: wp.array(dtype=vec3),
-        virt_fit_lambda: wp.array(dtype=real),
+        virt_fit: Fits,
         elastic: ElasticMaterials,
         virt_v_half: wp.array(dtype=vec3),
         virt_stress_half: wp.array(dtype=mat33),
@@ -280,9 +273,9 @@ def taylor_kernels(spec: Spec):
         body_force = skeleton_body_force(gravity, rho, water_density, mat)
         v, s, G, div, p, _band, _water = fit_fields(x, offsets[i], offsets[i + 1], nbr, real_q, real_volume,
                                                     real_v,
-                                     real_stress, h, virt_fit_c[i], virt_fit_inv_den[i], virt_fit_minv[i],
-                                     virt_fit_e[i], real_fit_c, real_fit_inv_den, real_fit_minv, real_fit_e,
-                                     virt_fit_lambda[i] < surface_threshold, real_p, zero,
+                                     real_stress, h, virt_fit.c[i], virt_fit.inv_den[i], virt_fit.minv[i],
+                                     virt_fit.e[i], real_fit,
+                                     virt_fit.smallest_eigenvalue[i] < surface_threshold, real_p, zero,
                                      water_on_surface, False, zero, surface_weight * rho * body_force, surface_water,
                                      point_water_density(water_density, mat))  # fmt: skip
         d, spin = split_velocity_gradient(G)
@@ -293,7 +286,7 @@ def taylor_kernels(spec: Spec):
         opening = zero
         if wp.static(plasticity):
             eps = fit_value(x, offsets[i], offsets[i + 1], nbr, real_q, real_volume, real_plastic_strain,
-                            h, virt_fit_c[i], virt_fit_inv_den[i], virt_fit_minv[i])  # fmt: skip
+                            h, virt_fit.c[i], virt_fit.inv_den[i], virt_fit.minv[i])  # fmt: skip
             s_trial = s + hdt * hooke_rate(d, lam, shear)
             d_s, _d_eps = plastic_source(s_trial, eps, spin, hdt, lam, shear, plastic_material[mat])
             s_half, crack = tension_cutoff(s_trial + d_s, eps, plastic_material[mat])
@@ -324,15 +317,8 @@ def taylor_kernels(spec: Spec):
         virt_volume: wp.array(dtype=real),
         virt_v_half: wp.array(dtype=vec3),
         virt_stress_half: wp.array(dtype=mat33),
-        virt_fit_c: wp.array(dtype=vec3),
-        virt_fit_inv_den: wp.array(dtype=real),
-        virt_fit_minv: wp.array(dtype=mat33),
-        virt_fit_e: wp.array(dtype=vec3),
-        real_fit_c: wp.array(dtype=vec3),
-        real_fit_inv_den: wp.array(dtype=real),
-        real_fit_minv: wp.array(dtype=mat33),
-        real_fit_e: wp.array(dtype=vec3),
-        real_fit_lambda: wp.array(dtype=real),
+        virt_fit: Fits,
+        real_fit: Fits,
         q: wp.array(dtype=vec3),
         v: wp.array(dtype=vec3),
         stress: wp.array(dtype=mat33),
@@ -372,9 +358,9 @@ def taylor_kernels(spec: Spec):
         rho = density[a]
         body_force = skeleton_body_force(gravity, rho, water_density, mat)
         v_half, s_half, G, div, p, band, water = fit_fields(x, offsets[a], offsets[a + 1], nbr, virt_q, virt_volume,
-                                            virt_v_half, virt_stress_half, h, real_fit_c[a], real_fit_inv_den[a],
-                                            real_fit_minv[a], real_fit_e[a], virt_fit_c, virt_fit_inv_den,
-                                            virt_fit_minv, virt_fit_e, real_fit_lambda[a] < surface_threshold,
+                                            virt_v_half, virt_stress_half, h, real_fit.c[a], real_fit.inv_den[a],
+                                            real_fit.minv[a], real_fit.e[a], virt_fit,
+                                            real_fit.smallest_eigenvalue[a] < surface_threshold,
                                             virt_p, half * dt, water_on_surface, surface_per_share != 0,
                                             half * spacing, surface_weight * rho * body_force, surface_water,
                                             point_water_density(water_density, mat))  # fmt: skip
@@ -383,7 +369,7 @@ def taylor_kernels(spec: Spec):
         # π ωΔt R per turn), and the force of its stress at t^{n+½}, turned by ωΔt/2 since tⁿ, missed
         # that turn against the points' motion by Δt v^{n+½}: a torque of π ωΔt L per turn
         free = offsets[a + 1] == offsets[a]
-        if own_velocity != 0 and uncorrected(real_fit_c[a], real_fit_minv[a]):
+        if own_velocity != 0 and uncorrected(real_fit.c[a], real_fit.minv[a]):
             free = True
         if free:
             # no virtual point near (or, moving with its own velocity, too few to fit a linear
@@ -440,9 +426,9 @@ def taylor_kernels(spec: Spec):
             d_v = wp.transpose(G) * dx
             for k in range(offsets[a], offsets[a + 1]):
                 i = nbr[k]
-                psi_i, phi_i = fit_weights(virt_q[i] - x, h, real_fit_c[a], real_fit_inv_den[a], real_fit_minv[a])
+                psi_i, phi_i = fit_weights(virt_q[i] - x, h, real_fit.c[a], real_fit.inv_den[a], real_fit.minv[a])
                 d_s += (virt_mass[i] / virt_density[i] * wp.dot(phi_i, dx)) * virt_stress_half[i]
-            d_s -= wp.dot(real_fit_e[a], dx) * s_half
+            d_s -= wp.dot(real_fit.e[a], dx) * s_half
         v_force = v[a] + dt * (div / rho + body_force + visc)
         v_mean = half * (v[a] + v_force)
         ledger[a, VISCOUS] -= wp.float64(dt * mass[a] * wp.dot(v_mean, visc))
@@ -478,9 +464,8 @@ def taylor_kernels(spec: Spec):
     def virtual_continuity(
         first: int, h: real, dt: real, offsets: wp.array(dtype=wp.int32), nbr: wp.array(dtype=wp.int32),
         real_q: wp.array(dtype=vec3), real_mass: wp.array(dtype=real), real_density: wp.array(dtype=real),
-        real_motion: wp.array(dtype=vec3), virt_q: wp.array(dtype=vec3), virt_fit_c: wp.array(dtype=vec3),
-        virt_fit_inv_den: wp.array(dtype=real), virt_fit_minv: wp.array(dtype=mat33),
-        virt_fit_e: wp.array(dtype=vec3), virt_density: wp.array(dtype=real),
+        real_motion: wp.array(dtype=vec3), virt_q: wp.array(dtype=vec3), virt_fit: Fits,
+        virt_density: wp.array(dtype=real),
     ):  # fmt: skip
         """ρ_i ← ρ_i exp(−Δt tr d), d the rate of deformation of the real particles' motion over the step
         (their displacement / Δt) fitted at the virtual point, on the step's midpoint configuration."""
@@ -491,10 +476,10 @@ def taylor_kernels(spec: Spec):
         for k in range(offsets[i], offsets[i + 1]):
             b = nbr[k]
             vol = real_mass[b] / real_density[b]
-            psi, phi = fit_weights(real_q[b] - x, h, virt_fit_c[i], virt_fit_inv_den[i], virt_fit_minv[i])
+            psi, phi = fit_weights(real_q[b] - x, h, virt_fit.c[i], virt_fit.inv_den[i], virt_fit.minv[i])
             v += (vol * psi) * real_motion[b]
             G += outer(vol * phi, real_motion[b])
-        G -= outer(virt_fit_e[i], v)
+        G -= outer(virt_fit.e[i], v)
         G = wp.inverse(wp.identity(n=3, dtype=real) + half * dt * G) * G
         virt_density[i] = virt_density[i] * wp.exp(-dt * wp.trace(G))
 
@@ -520,8 +505,8 @@ def launch_half_step(model, config, nl, si, so, dt: float, *, real_volume, real_
     launch_rows(half_step, m.virtual_count,
                 [real(m.h), real(dt), m.spec.vec3(*m.gravity), real(config.free_surface_threshold),
                  water_on_surface, nl.offsets, nl.indices, si.particle_q, real_volume, si.particle_v,
-                 si.particle_stress, *real_fits.arrays(), si.virtual_q, si.virtual_density,
-                 m.virtual_material, *virtual_fits.arrays(),
+                 si.particle_stress, real_fits.struct, si.virtual_q, si.virtual_density,
+                 m.virtual_material, virtual_fits.struct,
                  m.material_elastic, virtual_v, virtual_stress, so.virtual_q,
                  so.virtual_density, pressure, water_density, virtual_p,
                  si.particle_plastic_strain, m.material_plasticity, virtual_rate,
@@ -542,7 +527,7 @@ def launch_full_step(model, config, nl, si, so, dt: float, *, virtual_volume, vi
                  water_on_surface, real(config.artificial_viscosity), nl.offsets, nl.indices,
                  si.virtual_q, m.virtual_mass, si.virtual_density, virtual_volume, virtual_v,
                  virtual_stress,
-                 *virtual_fits.arrays()[:4], *real_fits.arrays(), si.particle_q, si.particle_v,
+                 virtual_fits.struct, real_fits.struct, si.particle_q, si.particle_v,
                  si.particle_stress, si.particle_density, m.particle_material, m.material_elastic,
                  so.particle_q, so.particle_v, so.particle_stress, so.particle_density,
                  virtual_p, water_density, si.particle_plastic_strain, m.material_plasticity,
@@ -568,5 +553,5 @@ def launch_virtual_continuity(model, nl, si, so, dt: float, real_motion, virtual
     *_, virtual_continuity, _ = taylor_kernels(m.spec)
     launch_rows(virtual_continuity, m.virtual_count,
                 [real(m.h), real(dt), nl.offsets, nl.indices, si.particle_q, m.particle_mass, si.particle_density,
-                 real_motion, si.virtual_q, *virtual_fits.arrays()[:4], so.virtual_density],
+                 real_motion, si.virtual_q, virtual_fits.struct, so.virtual_density],
                 m.device)  # fmt: skip
