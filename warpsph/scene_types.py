@@ -1,6 +1,6 @@
 """A scene's values as a scene file writes them, checked and converted to the dataclasses' field types;
-key paths and values rendered for messages (docs/scenes.md). Shared by the TOML reader, the checks and
-the phases' changes."""
+key paths and values rendered for messages, and the checks of one value (a range, a choice, a name)
+(docs/scenes.md). Shared by the TOML reader, the checks and the phases' changes."""
 
 from __future__ import annotations
 
@@ -11,6 +11,7 @@ import numbers
 import re
 import types
 import typing
+from collections.abc import Iterable, Sequence
 
 import numpy as np
 
@@ -247,3 +248,71 @@ def _array_of_tables(key: str, value, cls) -> list:
         given = {} if "name" in table else {"name": name}
         items.append(from_table(cls, item_key(key, name, i), table, **given))
     return items
+
+
+# --------------------------------------------------------------------------- value checks
+
+
+@dataclasses.dataclass(frozen=True)
+class Interval:
+    """A range of real numbers; each end open or closed, possibly infinite."""
+
+    lo: float = -math.inf
+    hi: float = math.inf
+    lo_closed: bool = False
+    hi_closed: bool = False
+
+    def __contains__(self, x: float) -> bool:
+        above = x >= self.lo if self.lo_closed else x > self.lo
+        below = x <= self.hi if self.hi_closed else x < self.hi
+        return above and below
+
+    def __str__(self) -> str:
+        lo, hi = number_text(self.lo).removesuffix(".0"), number_text(self.hi).removesuffix(".0")
+        if math.isinf(self.hi):
+            return f"{'>=' if self.lo_closed else '>'} {lo}"
+        if math.isinf(self.lo):
+            return f"{'<=' if self.hi_closed else '<'} {hi}"
+        return f"in {'[' if self.lo_closed else '('}{lo}, {hi}{']' if self.hi_closed else ')'}"
+
+
+POSITIVE = Interval(0.0, hi_closed=True)
+NON_NEGATIVE = Interval(0.0, lo_closed=True, hi_closed=True)
+UNIT_INTERVAL = Interval(0.0, 1.0)
+WATER_DENSITIES = Interval(500.0, 2000.0, True, True)
+"""Water densities [kg/m³] that are plausible; others are taken for a unit mistake."""
+FRICTION_ANGLES = Interval(0.0, 90.0, lo_closed=True)
+"""Friction angles φ [degrees] accepted: [0°, 90°)."""
+
+
+def check_range(key: str, value: float, interval: Interval, note: str = "") -> None:
+    """Raise unless ``value`` lies in ``interval``; ``note`` says why the bound is there."""
+    if value not in interval:
+        raise SceneError(key, f"must be {interval}{note}, got {show(value)}")
+
+
+def check_choice(key: str, value, choices: Iterable, note: str = "") -> None:
+    """Raise unless ``value`` is one of ``choices``; ``note`` explains a restriction (e.g. the dim)."""
+    choices = tuple(choices)
+    if value not in choices:
+        accepted = ", ".join(show(c) for c in choices)
+        raise SceneError(key, f"must be one of {accepted}{note}, got {show(value)}")
+
+
+def check_unique(what: str, *sections: tuple[str, Sequence]) -> None:
+    """Raise on the first name repeated among the items of the (section, items) pairs."""
+    seen: dict[str, str] = {}
+    for section, items in sections:
+        for i, item in enumerate(items):
+            if item.name in seen:
+                raise SceneError(
+                    f"{item_key(section, item.name, i)}.name",
+                    f"duplicate {what} name {show(item.name)} ({seen[item.name]} and {section}[{i}])",
+                )
+            seen[item.name] = f"{section}[{i}]"
+
+
+def check_name(key: str, name) -> None:
+    """Raise unless ``name`` is a non-empty string of letters, digits, '_' and '-'."""
+    if not isinstance(name, str) or not NAME.fullmatch(name):
+        raise SceneError(key, f"must be a non-empty string of letters, digits, '_' or '-', got {show(name)}")
