@@ -38,3 +38,21 @@ def test_bench_writes_positive_figures(tmp_path, capsys):
         its = r["solve_iterations_per_step"]
         assert (its is None) == (r["effects"] != "saturated") and (its is None or its >= 1), r
     assert "particle-steps/s" in capsys.readouterr().out
+
+
+def test_phase_costs_report_trials_and_implicit_steps(tmp_path):
+    """bench.phases on a coarse vertical cut's safety search and a coarse consolidating column: each phase's
+    steps and wall time; the trials and steps per trial of the search; the implicit steps and fixed-stress
+    iterations per step of the consolidation."""
+    from warpsph.bench.phases import phase_costs
+    from warpsph.validation.safety import strength_reduction_phases, undrained_clay
+    from test_consolidation import consolidation_scene
+
+    cut = phase_costs(undrained_clay("cut", [(0, 0), (8, 0), (8, 4), (4, 4), (4, 2), (0, 2)], 0.5,
+                                     strength_reduction_phases(500, 0.2), 20e3), tmp_path / "cut")  # fmt: skip
+    assert [r["kind"] for r in cut] == ["k0", "equilibrium", "safety"]
+    safety = cut[-1]
+    assert safety["trials"] >= 2 and safety["steps_per_trial"] == safety["steps"] / safety["trials"]
+    assert all(r["wall_seconds"] > 0.0 for r in cut)
+    (column,) = phase_costs(consolidation_scene(1.0, tv_end=0.05, frames=1), tmp_path / "column")
+    assert column["kind"] == "consolidation" and column["implicit_steps"] >= 1 and column["iterations_per_step"] >= 1
