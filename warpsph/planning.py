@@ -81,8 +81,8 @@ def check_reservoirs_reach(model, state) -> None:
 def plan(scene: Scene, device: str | None = None, timed: bool = True) -> RunPlan:
     """Build every phase's model (which checks what its particles show, :mod:`warpsph.scene_reach`: the
     loads, regions and probes of each phase against its bodies; a staged scene's point and region probes
-    against every phase's particles; the reservoirs against each phase's free surfaces), time a few steps of the first mechanical phase (unless not
-    ``timed``) and count the rest."""
+    against every phase's particles; the reservoirs against each phase's free surfaces), time a few
+    steps of the first mechanical phase (unless not ``timed``) and count the rest."""
     from warpsph.builder import build
     from warpsph.scene_reach import check_probes_reach
     from warpsph.solver import Solver, warm_up

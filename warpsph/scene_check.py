@@ -213,8 +213,8 @@ def _check_flow_phase(phase: Phase, key: str, scene: Scene) -> None:
     drained = any(face.drainage.kind != "impermeable" for face in [*scene.boundaries, *scene.loads])
     if (phase.kind == "consolidation" and not drained and not scene.reservoirs
             and scene.pressure.free_surface == "impermeable"):  # fmt: skip
-        raise SceneError(f"{key}.kind", "a consolidation phase drains the pore water, and this scene has nowhere for it "
-                         "to go: add a drained boundary or load, a reservoir, or set pressure.free_surface = "
+        raise SceneError(f"{key}.kind", "a consolidation phase drains the pore water, and this scene has nowhere "
+                         "for it to go: add a drained boundary or load, a reservoir, or set pressure.free_surface = "
                          '"drained"')  # fmt: skip
     if phase.steady and not drained and not scene.reservoirs:
         raise SceneError(f"{key}.steady", "a steady flow needs water to come from somewhere: a drained or inflow "

@@ -169,10 +169,10 @@ class Solver:
         return nl
 
     def check_neighbours(self) -> None:
-        """Check the neighbour lists built since the last check (:meth:`NeighbourList.check`: one wait for
-        the device) and grow their room ahead of need; a step calls it after more than
-        ``NEIGHBOUR_CHECK_EVERY`` steps unchecked, a run at its own check cadence. Raises :class:`SimulationError` where a point
-        had more neighbours than its list held."""
+        """Check every neighbour list built since the last check (:meth:`NeighbourList.check`: one wait
+        for the device) and grow their room ahead of need; a step calls it after more than
+        ``NEIGHBOUR_CHECK_EVERY`` steps unchecked, a run at its own check cadence. Raises
+        :class:`SimulationError` where a point had more neighbours than its list held."""
         self._unchecked = 0
         if any([nl.check() for nl in self.neighbour_lists]):
             raise SimulationError(
