@@ -40,6 +40,14 @@ def test_bench_writes_positive_figures(tmp_path, capsys):
     assert "particle-steps/s" in capsys.readouterr().out
 
 
+def test_incremental_case_turns_on_the_scenes_incremental_trials():
+    from warpsph.bench.phases import case_scene
+
+    scene = case_scene("slope_fos_incremental")
+    assert [p.incremental for p in scene.phases if p.kind == "safety"] == [True]
+    assert not any(p.incremental for p in case_scene("slope_fos").phases)
+
+
 def test_phase_costs_report_trials_and_implicit_steps(tmp_path):
     """bench.phases on a coarse vertical cut's safety search and a coarse consolidating column: each phase's
     steps and wall time; the trials and steps per trial of the search; the implicit steps and fixed-stress
@@ -53,6 +61,7 @@ def test_phase_costs_report_trials_and_implicit_steps(tmp_path):
     assert [r["kind"] for r in cut] == ["k0", "equilibrium", "safety"]
     safety = cut[-1]
     assert safety["trials"] >= 2 and safety["steps_per_trial"] == safety["steps"] / safety["trials"]
+    assert 1.0 <= safety["factor"] <= 3.0
     assert all(r["wall_seconds"] > 0.0 for r in cut)
     (column,) = phase_costs(consolidation_scene(1.0, tv_end=0.05, frames=1), tmp_path / "column")
     assert column["kind"] == "consolidation" and column["implicit_steps"] >= 1 and column["iterations_per_step"] >= 1

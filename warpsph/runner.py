@@ -284,6 +284,7 @@ class Run:
                 self.energy_guard.begin(self.loop["energy_start"], self.loop["energy_error"],
                                         self.loop["energy_windows"])  # fmt: skip
             self.phase_start_step, self.phase_start_time = self.records[-1].first_step, self.records[-1].start_time
+        self.calculation.restore(ck.arrays)
         self.scratch.assign(self.state)
         self.step_index = self.checkpoint_step = ck.step
         self.resumed = True
@@ -297,6 +298,7 @@ class Run:
             arrays.update(self.solver.layout.arrays())
         arrays["displacement_origin"] = self.origin
         arrays["energy_ledger"] = self.solver.energy.ledger.numpy()
+        arrays.update(self.calculation.checkpoint_arrays())
         if self.flow is not None:
             arrays["flow_seeping"] = self.flow.seeping
         self._room_for(arrays)

@@ -149,6 +149,9 @@ def _check_phases(scene: Scene) -> None:
         if phase.refine and phase.kind != "safety":
             raise SceneError(f"{key}.refine",
                              f"only a safety phase refines its search; this phase is {show(phase.kind)}")
+        if phase.incremental and phase.kind != "safety":
+            raise SceneError(f"{key}.incremental",
+                             f"only a safety phase runs trials, incremental or not; this phase is {show(phase.kind)}")
         check_choice(f"{key}.pore_pressure", phase.pore_pressure, ("coupled", "fixed"))
         if phase.pore_pressure == "fixed":
             _needs_pore_water(f"{key}.pore_pressure", scene.effects, '"fixed" pore pressures ')

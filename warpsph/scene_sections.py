@@ -547,6 +547,10 @@ class Phase:
     min_failing_mass: float = 8.0
     """Safety: the phase warns when its failing mass is fewer particle spacings high than this [-] (≥ 1):
     the factor of safety is then not converged in the spacing."""
+    incremental: bool = False
+    """Safety: each trial starts from the state of the strongest trial that stood below it (incremental
+    reduction, as PLAXIS's: fewer steps, a factor that depends on the trials before it); false: every trial
+    from the phase's start (as FLAC's)."""
     refine: bool = False
     """Safety: also run the search at half the particle spacing (the scene's phases up to this one, rebuilt
     at Δx/2 in ``RUN_DIR/refined_NAME``) and report both factors and their difference."""

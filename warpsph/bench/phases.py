@@ -6,6 +6,7 @@ steps and fixed-stress iterations per step). docs/performance.md, *Where users w
 from __future__ import annotations
 
 import argparse
+import dataclasses
 import sys
 import tempfile
 import time
@@ -19,15 +20,20 @@ from warpsph.regression import SCENES, consolidation_variant
 from warpsph.runner import Run
 from warpsph.scene_toml import load_scene
 
-CASES = ("slope_fos", "terzaghi_consolidation")
-"""The shipped safety search (the slope of the tutorial) and Terzaghi's column as a consolidation phase
-(:func:`warpsph.regression.consolidation_variant`)."""
+CASES = ("slope_fos", "slope_fos_incremental", "terzaghi_consolidation")
+"""The shipped safety search (the slope of the tutorial), the same with incremental trials, and Terzaghi's
+column as a consolidation phase (:func:`warpsph.regression.consolidation_variant`)."""
 
 
 def case_scene(name: str):
-    """The scene of case ``name``: a shipped scene, or ``<scene>_consolidation`` for its consolidation variant."""
+    """The scene of case ``name``: a shipped scene, ``<scene>_consolidation`` for its consolidation variant,
+    or ``<scene>_incremental`` for the scene with its safety phases' ``incremental`` on."""
     if name.endswith("_consolidation"):
         return consolidation_variant(load_scene(SCENES / f"{name.removesuffix('_consolidation')}.toml"))
+    if name.endswith("_incremental"):
+        scene = load_scene(SCENES / f"{name.removesuffix('_incremental')}.toml")
+        scene.phases = [dataclasses.replace(p, incremental=True) if p.kind == "safety" else p for p in scene.phases]
+        return scene.validate()
     return load_scene(SCENES / f"{name}.toml")
 
 
@@ -45,7 +51,7 @@ def phase_costs(scene, out: Path, device: str | None = None) -> list[dict]:
                      "steps": phase["steps"], "wall_seconds": marks[-1] - marks[-2]})  # fmt: skip
         if phase["kind"] == "safety":
             trials = len(phase["trials"])
-            rows[-1].update(trials=trials, steps_per_trial=phase["steps"] / max(trials, 1))
+            rows[-1].update(trials=trials, steps_per_trial=phase["steps"] / max(trials, 1), factor=phase["criterion"])
 
     Run(scene, out, device=device, overwrite=True).run(phase_done=done)
     results = load_results(out / "results.h5")
@@ -60,7 +66,8 @@ def phase_costs(scene, out: Path, device: str | None = None) -> list[dict]:
 def main(argv=None) -> int:
     parser = argparse.ArgumentParser(prog="python -m warpsph.bench.phases", description=__doc__.splitlines()[0])
     parser.add_argument("--cases", nargs="+", default=list(CASES), help="shipped scene names (NAME_consolidation: "
-                        "the scene's consolidation variant)")  # fmt: skip
+                        "the scene's consolidation variant; NAME_incremental: its safety phases' trials "
+                        "incremental)")  # fmt: skip
     parser.add_argument("--device", default="cpu")
     parser.add_argument("--json", type=Path, default=Path("runs/bench/phases.json"))
     args = parser.parse_args(argv)
@@ -68,9 +75,11 @@ def main(argv=None) -> int:
     with tempfile.TemporaryDirectory() as tmp:
         for name in args.cases:
             record["cases"][name] = phase_costs(case_scene(name), Path(tmp) / name, args.device)
-    header = ["case", "phase", "kind", "steps", "wall s", "trials", "steps/trial", "implicit steps", "iterations/step"]
+    header = ["case", "phase", "kind", "steps", "wall s", "trials", "steps/trial", "factor", "implicit steps",
+              "iterations/step"]  # fmt: skip
     rows = [[name, r["phase"], r["kind"], str(r["steps"]), f"{r['wall_seconds']:.1f}", str(r.get("trials", "")),
-             f"{r['steps_per_trial']:.0f}" if "steps_per_trial" in r else "", str(r.get("implicit_steps", "")),
+             f"{r['steps_per_trial']:.0f}" if "steps_per_trial" in r else "",
+             f"{r['factor']:.4g}" if "factor" in r else "", str(r.get("implicit_steps", "")),
              f"{r['iterations_per_step']:.1f}" if "iterations_per_step" in r else ""]
             for name, case in record["cases"].items() for r in case]  # fmt: skip
     print(markdown_table(header, rows))

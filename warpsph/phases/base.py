@@ -48,6 +48,13 @@ class Calculation:
         """Run the phase to its end; its outcome (``warpsph.phases.CONVERGED``, ...)."""
         raise NotImplementedError
 
+    def checkpoint_arrays(self) -> dict:
+        """Arrays the calculation keeps in the run's checkpoint beside the state (:meth:`restore` takes them back)."""
+        return {}
+
+    def restore(self, arrays: dict) -> None:
+        """Take back what :meth:`checkpoint_arrays` kept, resuming from a checkpoint's ``arrays`` (its loop restored)."""
+
     def warnings(self, record) -> list[str]:
         """One line per thing the phase's result (``record``, a :class:`~warpsph.phases.staging.PhaseRecord`)
         should make its user doubt, each saying what to change (the command line prints them)."""

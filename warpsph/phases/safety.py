@@ -53,6 +53,9 @@ class TrialOutcome(NamedTuple):
     """The kinetic energy at its last check [J, J/m in 2D] (inf where the run guard stopped the trial)."""
     frame: object
     """The :class:`~warpsph.runner.FrameContent` of its last state, or None."""
+    state: dict | None = None
+    """Its last state's arrays (:meth:`~warpsph.model.State.arrays`, on the host) where it stood in an
+    ``incremental`` phase (later trials start from it), else None."""
 
     @property
     def outcome(self) -> int:
@@ -178,15 +181,45 @@ class TrialJudge:
 
 
 class SafetyAnalysis(Equilibrium):
-    """Strength reduction (:class:`~warpsph.phases.search.FactorSearch`): each trial an equilibrium from
-    the phase's start state with c, tan φ and tan ψ divided by the trial factor F; a trial stands
+    """Strength reduction (:class:`~warpsph.phases.search.FactorSearch`): each trial an equilibrium with
+    c, tan φ and tan ψ divided by the trial factor F, from the state of the strongest trial that stood
+    below F (from the phase's start where none has, or without the phase's ``incremental``); a trial stands
     when it converges within the phase's step cap, and fails at the cap or once a particle has
     moved farther than the failure displacement. Each trial's last state is written as a frame
     (attributes ``factor`` and ``outcome``), the state is then put back to the phase's start and
     checkpointed, so the next phase starts from the unreduced state. With trial workers (the run's
     ``trial_workers`` or ``scheduler``) the trials of a round run at once on Dask, one per worker,
-    each from the phase's start checkpoint (:func:`remote_trial`); their steps count as if run in
+    each from the phase's checkpoint (:func:`remote_trial`); their steps count as if run in
     turn."""
+
+    STANDING = "standing_"
+    """The prefix of the standing state's arrays in the run's checkpoint (its factor is ``loop["standing"]``)."""
+
+    def __init__(self, run, phase):
+        super().__init__(run, phase)
+        self.standing: tuple[float, dict] | None = None
+        """The factor and state (:attr:`TrialOutcome.state`) of the strongest trial that stood below every
+        trial that failed, which later trials start from."""
+
+    def checkpoint_arrays(self) -> dict:
+        if self.standing is None:
+            return {}
+        return {self.STANDING + name: arr for name, arr in self.standing[1].items()}
+
+    def restore(self, arrays: dict) -> None:
+        factor = self.run.loop.get("standing")
+        if factor is not None:
+            n = len(self.STANDING)
+            self.standing = (factor, {k[n:]: v for k, v in arrays.items() if k.startswith(self.STANDING)})
+
+    def keep_standing(self, outcomes: list[TrialOutcome], failed: float | None) -> None:
+        """Keep the state of the strongest of a round's ``outcomes`` that stood below ``failed`` (the
+        smallest factor that failed, None: none yet), where it is stronger than the one kept."""
+        stood = [o for o in outcomes if o.state is not None and (failed is None or o.factor < failed)]
+        best = max(stood, key=lambda o: o.factor, default=None)
+        if best is not None and (self.standing is None or best.factor > self.standing[0]):
+            self.standing = (best.factor, best.state)
+            self.run.loop["standing"] = best.factor
 
     def calculate(self, progress) -> str:
         run, phase, record = self.run, self.phase, self.run.records[-1]
@@ -215,6 +248,8 @@ class SafetyAnalysis(Equilibrium):
                         if outcome.outcome == FAILS and outcome.factor < weakest[0]:
                             weakest = (outcome.factor, outcome.frame)
                     search.record(outcome.factor, outcome.stands)
+                if phase.incremental:
+                    self.keep_standing(outcomes, search.high)
                 run.checkpoint()
                 if progress is not None:
                     progress(run.time, run.step_index)
@@ -300,11 +335,16 @@ class SafetyAnalysis(Equilibrium):
         return client.gather(futures)
 
     def trial(self, factor: float, progress=None) -> TrialOutcome:
-        """One trial at ``factor`` from the current state (the phase's start), which it then puts back
-        with the step index; the outcome carries the frame of its last state (None where the run guard
-        stopped it: a mechanism ran away, the trial failed)."""
+        """One trial at ``factor`` from the standing state below it (:attr:`standing`) or the current state
+        (the phase's start), which it then puts back with the step index; displacements count from the
+        phase's start. The outcome carries the frame of its last state (None where the run guard
+        stopped it: a mechanism ran away, the trial failed) and, where it stood, that state."""
         run, phase = self.run, self.phase
         start = {name: arr.numpy().copy() for name, arr in run.state.arrays().items()}
+        if phase.incremental and self.standing is not None and self.standing[0] < factor:
+            for name, arr in run.state.arrays().items():
+                arr.assign(self.standing[1][name])
+            run.scratch.assign(run.state)
         materials = list(run.phase_scene.materials.values())
         spec, device = run.model.spec, run.model.device
         positions = start["particle_q"][: run.model.particle_count]
@@ -323,6 +363,9 @@ class SafetyAnalysis(Equilibrium):
         except SimulationError:
             ratio, moved, energy, why = math.inf, math.inf, math.inf, RAN_AWAY
         frame = run.frame()._replace(balance=run.balance_since_start()) if math.isfinite(moved) else None
+        end = None
+        if why == CONVERGED_WHY and phase.incremental:  # where later trials start from
+            end = {name: arr.numpy().copy() for name, arr in run.state.arrays().items()}
         steps = run.step_index - first
         for name, arr in run.state.arrays().items():
             arr.assign(start[name])
@@ -331,7 +374,7 @@ class SafetyAnalysis(Equilibrium):
         run.start_energy()
         run.clear_guards()
         run.model.material_plasticity = plastic_materials(spec, materials, device)
-        return TrialOutcome(factor, why, ratio, steps, moved, energy, frame)
+        return TrialOutcome(factor, why, ratio, steps, moved, energy, frame, end)
 
 
 def remote_trial(run_type: type, scene, checkpoint: bytes, factor: float, device: str | None,
