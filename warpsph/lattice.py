@@ -106,7 +106,7 @@ def _fill(body: Body, dx: float, dim: int, offset: float, shrink: float) -> np.n
     return np.concatenate(kept) if kept else np.zeros((0, 3))
 
 
-def _bounds(body: Body, dim: int) -> tuple[np.ndarray, np.ndarray]:
+def body_bounds(body: Body, dim: int) -> tuple[np.ndarray, np.ndarray]:
     """Axis-aligned bounding box of the shape (3-vectors; unused axes are ignored by callers)."""
     if body.shape == "box":
         return np.asarray(body.min, dtype=float), np.asarray(body.max, dtype=float)
@@ -124,7 +124,7 @@ def _bounds(body: Body, dim: int) -> tuple[np.ndarray, np.ndarray]:
 def _index_bounds(body: Body, dx: float, dim: int, offset: float, shrink: float) -> list[tuple[int, int]]:
     """(first, last) lattice index k per axis (x, y, z) whose coordinate (k + offset) Δx may lie in the
     body; (0, 0) on unused axes."""
-    lo, hi = _bounds(body, dim)
+    lo, hi = body_bounds(body, dim)
     tol = TOLERANCE * dx
     bounds = [(0, 0)] * 3
     for a in used_axes(dim):
