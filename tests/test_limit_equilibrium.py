@@ -136,3 +136,46 @@ def test_spencer_balances_forces_and_moments():
     f_bishop = float(bishop(s)[0])
     f, theta = spencer(s, 0, f_bishop)
     assert f == pytest.approx(f_bishop, rel=0.01) and 0.0 < theta < 0.6
+
+
+def embankment(x):
+    """An embankment 6 m high on 2 m of the same soil: its left slope 1:2.5 from x = 5 to 20 m, a crest
+    to x = 24 m, its right slope 1:1.5 to x = 33 m, over ground 40 m wide."""
+    left = 2.0 + (x - 5.0) / 2.5
+    right = 8.0 - (x - 24.0) / 1.5
+    return np.clip(np.minimum(left, right), 2.0, 8.0)
+
+
+def test_a_slip_region_keeps_the_search_within_it():
+    """``region`` (x from, x to, lowest y): unrestricted, the steeper right slope of an embankment is the
+    critical one; within x < 22 m the left slope's circle is found, every cut column inside the region
+    and its factor higher; a region holding the whole model changes nothing."""
+    g = particles(embankment, 40.0, 0.5, 8e3, 28.0)
+    free = critical_circle(g)
+    left = critical_circle(g, (-math.inf, 22.0, -math.inf))
+    whole = critical_circle(g, (0.0, 40.0, 0.0))
+    print(f"\nunrestricted {free.bishop:.4f} at {free.centre}, left of 22 m {left.bishop:.4f} at {left.centre}")
+    assert free.centre[0] > 22.0 and left.centre[0] < 22.0 and left.bishop > free.bishop
+    s = slices(g, np.array([[*left.centre, left.radius]]))
+    assert np.all(g.x[s.weight[0] > 0.0] <= 22.0)
+    assert (whole.bishop, whole.centre, whole.radius) == (free.bishop, free.centre, free.radius)
+
+
+def test_a_slip_region_bounds_the_circle_from_below():
+    """Griffiths & Lane's slope with the slip kept above the toe's level (y ≥ 2 m, the foundation's top):
+    the deepest arc point found lies at or above it, the factor at or above the unrestricted one, and
+    within 1 % of the same method on the continuous outline."""
+    g = particles(gl, 44.0, 0.5, 10e3, 20.0)
+    free, shallow = critical_circle(g), critical_circle(g, (-math.inf, math.inf, 2.0))
+    (xc, yc), r = shallow.centre, shallow.radius
+    s = slices(g, np.array([[xc, yc, r]]))
+    cut = g.x[s.weight[0] > 0.0]
+    lowest = float(np.min(yc - np.sqrt(r * r - (cut - xc) ** 2)))
+    exact = continuous_bishop(gl, 10e3, 20.0, (xc, yc, r))
+    print(f"\nunrestricted {free.bishop:.4f}, above y = 2 m {shallow.bishop:.4f} (lowest {lowest:.3f} m), "
+          f"continuous {exact:.4f}")
+    assert lowest >= 2.0 - 1e-9 and shallow.bishop >= free.bishop and shallow.bishop == pytest.approx(exact, rel=0.01)
+
+
+def test_a_slip_region_missing_the_ground_finds_no_circle():
+    assert critical_circle(particles(gl, 44.0, 0.5, 10e3, 20.0), (50.0, 60.0, -math.inf)) is None

@@ -13,6 +13,7 @@ tolerance while its displacement grows.
 from __future__ import annotations
 
 import dataclasses
+import math
 import xml.dom.minidom
 
 import numpy as np
@@ -235,6 +236,11 @@ def test_a_trial_whose_energy_falls_while_it_moves_is_not_collapsing():
     ({"factor_tolerance": 0.0}, "phases.safety.factor_tolerance", "must be"),
     ({"factor_max": 0.5}, "phases.safety.factor_max", "must be"),
     ({"min_failing_mass": 0.5}, "phases.safety.min_failing_mass", "must be"),
+    ({"slip_region": Region(min=(9.0, 0.0, 0.0), max=(12.0, 4.0, 0.0))}, "phases.safety.slip_region",
+     "lies outside the ground (x from 0 to 8 m, y up to 4 m)"),
+    ({"slip_region": Region(min=(0.0, 5.0, 0.0))}, "phases.safety.slip_region", "no slip circle could cut it"),
+    ({"slip_region": Region(min=(6.0, 0.0, 0.0), max=(2.0, 4.0, 0.0))}, "phases.safety.slip_region.max",
+     "must be >= min"),
 ])  # fmt: skip
 def test_bad_safety_phases_name_their_key(change, key, words):
     phases = strength_reduction_phases(100, 0.01)
@@ -407,6 +413,30 @@ def test_incremental_trials_start_from_the_last_standing_trial(tmp_path):
     before, after = counts[False], counts[True]
     assert after["outcome"] == "converged" and after["steps"] < before["steps"]
     assert abs(after["criterion"] - before["criterion"]) <= before["resolution"] + after["resolution"]
+
+
+def test_a_slip_region_is_for_safety_phases():
+    phases = strength_reduction_phases(100, 0.01)
+    phases[1] = dataclasses.replace(phases[1], slip_region=Region(max=(4.0, 4.0, 0.0)))
+    with pytest.raises(SceneError, match=r"^phases.gravity.slip_region: only a safety phase searches slip circles"):
+        vertical_cut(0.5, phases)
+
+
+def test_a_slip_region_limits_the_limit_equilibrium_search(tmp_path):
+    """The cut's slip circle kept above y = 2.5 m, half a metre up its 2 m face: the search finds a circle
+    whose arc stays there, its factor above the free search's (measured at Δx = 0.5 m: 2.088 against
+    1.831, whose arc reaches down to 2.25 m); strength reduction is unchanged."""
+    phases = strength_reduction_phases(300, 0.5)
+    free = warpsph.run_scene(vertical_cut(0.5, phases), tmp_path / "free", device="cpu").phases[-1]
+    phases[-1] = dataclasses.replace(phases[-1], slip_region=Region(min=(-math.inf, 2.5, 0.0)))
+    kept = warpsph.run_scene(vertical_cut(0.5, phases), tmp_path / "kept", device="cpu").phases[-1]
+    print(f"\nfree {free['limit_equilibrium']}, above y = 2.5 m {kept['limit_equilibrium']}")
+    bishop, _, xc, yc, r = kept["limit_equilibrium"]
+    columns = np.arange(4.0, 8.01, 0.5)  # the upper ground's columns, the face's included
+    columns = columns[np.abs(columns - xc) < r]
+    assert np.all(yc - np.sqrt(r * r - (columns - xc) ** 2) >= 2.5 - 1e-9)  # the arc's base under soil
+    assert bishop > free["limit_equilibrium"][0] + 0.1
+    assert kept["criterion"] == free["criterion"]
 
 
 def test_incremental_is_for_safety_phases():

@@ -20,7 +20,7 @@ from decimal import Decimal
 import numpy as np
 
 from warpsph.errors import SceneError
-from warpsph.lattice import has_lattice_point, lattice_span, polygon_area, used_axes
+from warpsph.lattice import body_bounds, has_lattice_point, lattice_span, polygon_area, used_axes
 from warpsph.physics.retention import RETENTION
 from warpsph.phases import SWITCHED, change_target, phase_label, phase_scene
 from warpsph.scene_plausible import warn_implausible
@@ -149,6 +149,11 @@ def _check_phases(scene: Scene) -> None:
         if phase.refine and phase.kind != "safety":
             raise SceneError(f"{key}.refine",
                              f"only a safety phase refines its search; this phase is {show(phase.kind)}")
+        if phase.slip_region != Region():
+            if phase.kind != "safety":
+                raise SceneError(f"{key}.slip_region", "only a safety phase searches slip circles; this phase is "
+                                 f"{show(phase.kind)}")  # fmt: skip
+            _check_region(phase.slip_region, f"{key}.slip_region")
         if phase.incremental and phase.kind != "safety":
             raise SceneError(f"{key}.incremental",
                              f"only a safety phase runs trials, incremental or not; this phase is {show(phase.kind)}")
@@ -180,12 +185,29 @@ def _check_phases(scene: Scene) -> None:
         if phase.kind in ("equilibrium", "safety") and not any(staged.simulation.gravity) and not staged.loads:
             raise SceneError(f"{key}.kind", f"an {phase.kind} phase needs gravity or a load to balance; this one "
                              "has neither, so it would do nothing")  # fmt: skip
+        if phase.kind == "safety" and phase.slip_region != Region():
+            _check_slip_region(phase.slip_region, f"{key}.slip_region", staged)
         try:
             _validate_one_phase(staged)
         except SceneError as e:
             if i == 0:
                 raise
             raise SceneError(key, f"{e.key}: {e.message}" if e.key else e.message) from None
+
+
+def _check_slip_region(region: Region, key: str, staged: Scene) -> None:
+    """A safety phase's ``slip_region`` must meet the ground of its active bodies, in a scene where limit
+    equilibrium is searched (2D, gravity along −y)."""
+    dim, gravity = staged.simulation.dim, staged.simulation.gravity
+    if dim != 2 or not (gravity[1] < 0.0 and gravity[0] == 0.0):
+        raise SceneError(key, "limit equilibrium searches slip circles in 2D with gravity along -y only; this "
+                         f"scene is {dim}D with gravity {show(list(gravity))}")  # fmt: skip
+    bounds = [body_bounds(body, dim) for body in staged.bodies]
+    lo, hi = np.min([b[0] for b in bounds], axis=0), np.max([b[1] for b in bounds], axis=0)
+    if not (region.min[0] < hi[0] and region.max[0] > lo[0] and region.min[1] < hi[1]):
+        raise SceneError(key, f"lies outside the ground (x from {lo[0]:g} to {hi[0]:g} m, y up to {hi[1]:g} m): "
+                         f"no slip circle could cut it; got x from {show(region.min[0])} to {show(region.max[0])} "
+                         f"m, y from {show(region.min[1])} m")  # fmt: skip
 
 
 def _type_changes(scene: Scene) -> None:

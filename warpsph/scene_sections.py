@@ -551,6 +551,10 @@ class Phase:
     """Safety: each trial starts from the state of the strongest trial that stood below it (incremental
     reduction, as PLAXIS's: fewer steps, a factor that depends on the trials before it); false: every trial
     from the phase's start (as FLAC's)."""
+    slip_region: Region = field(default_factory=Region)
+    """Safety: where the limit-equilibrium search looks [m]: a slip circle's sliding mass lies between its
+    min and max x and its arc no lower than its min y (SLOPE/W's entry and exit ranges; default: the whole
+    ground). Strength reduction finds its own mechanism anywhere."""
     refine: bool = False
     """Safety: also run the search at half the particle spacing (the scene's phases up to this one, rebuilt
     at Δx/2 in ``RUN_DIR/refined_NAME``) and report both factors and their difference."""

@@ -105,9 +105,15 @@ class Slices:
     inside its sides."""
 
 
-def slices(g: Ground, circles: np.ndarray) -> Slices:
+EVERYWHERE = (-math.inf, math.inf, -math.inf)
+"""A slip region that holds every circle."""
+
+
+def slices(g: Ground, circles: np.ndarray, region: tuple[float, float, float] = EVERYWHERE) -> Slices:
     """The slices of ``circles`` (K,3: centre x, centre y, radius [m]) over the columns of ``g``: each
-    column's soil above the circle's lower arc, its base where the arc crosses the column's middle."""
+    column's soil above the circle's lower arc, its base where the arc crosses the column's middle. A
+    circle is valid only where the columns it cuts lie within ``region`` (x from, x to, lowest y [m]):
+    their x between the first two, their bases at or above the third."""
     xc, yc, r = (circles[:, i : i + 1] for i in range(3))
     dx = g.x[None, :] - xc
     inside = np.abs(dx) < r
@@ -115,6 +121,7 @@ def slices(g: Ground, circles: np.ndarray) -> Slices:
     k_count, c_count = base.shape
     weight, cohesion, tan_phi, pore = (np.zeros((k_count, c_count)) for _ in range(4))
     below_bottom = np.zeros(k_count, dtype=bool)
+    outside = np.zeros(k_count, dtype=bool)
     half = 0.5 * g.cell
     for j in range(c_count):
         y, b = g.y[j], base[:, j]
@@ -127,12 +134,13 @@ def slices(g: Ground, circles: np.ndarray) -> Slices:
         cohesion[:, j], tan_phi[:, j] = g.cohesion[j][cut], g.tan_phi[j][cut]
         pore[:, j] = np.interp(b, y, g.pore[j])
         below_bottom |= (w > 0.0) & (b < lower[0] - 1e-9 * g.cell)
+        outside |= (w > 0.0) & ((g.x[j] < region[0]) | (g.x[j] > region[1]) | (b < region[2] - 1e-9 * g.cell))
     sin = np.clip(dx / r, -1.0, 1.0)
     cut_columns = weight > 0.0
     driving = np.sum(weight * sin, axis=1, keepdims=True)
     sin = np.where(driving < 0.0, -sin, sin)  # α positive where the base rises in the sliding direction
     inside_sides = ~cut_columns[:, 0] & ~cut_columns[:, -1]  # the arc leaves through the surface, not a side
-    valid = (np.sum(cut_columns, axis=1) >= FEWEST_SLICES * SUBSLICES) & ~below_bottom & inside_sides
+    valid = (np.sum(cut_columns, axis=1) >= FEWEST_SLICES * SUBSLICES) & ~below_bottom & inside_sides & ~outside
     return Slices(weight, sin, np.sqrt(1.0 - sin * sin), cohesion, tan_phi, pore, g.width, valid)
 
 
@@ -226,14 +234,19 @@ class CriticalCircle:
     """The circles tried."""
 
 
-def critical_circle(g: Ground) -> CriticalCircle | None:
+def critical_circle(g: Ground, region: tuple[float, float, float] = EVERYWHERE) -> CriticalCircle | None:
     """The circle of least Bishop factor over a grid of centres above the ground (from its top to 1.5
     heights above it, across its width) and radii whose arcs reach from its top to its bottom, refined
-    ``REFINEMENTS`` times around the best, and Spencer's factor on it. None where no circle cuts the
-    ground validly, or where free water stands on it (a reservoir's thrust on the slope is not taken)."""
+    ``REFINEMENTS`` times around the best, and Spencer's factor on it; with ``region`` (x from, x to,
+    lowest y [m]) the centres span its width and the circles are those whose sliding mass lies within it
+    (:func:`slices`). None where no circle cuts the ground validly, or where free water stands on it (a
+    reservoir's thrust on the slope is not taken)."""
     if np.any(g.ponded > 0.0):
         return None
-    height, left, right = g.top - g.bottom, float(g.x.min()), float(g.x.max())
+    left, right = max(float(g.x.min()), region[0]), min(float(g.x.max()), region[1])
+    height = g.top - max(g.bottom, region[2])
+    if not (left < right and height > 0.0):
+        return None
     best, best_factor, tried = None, math.inf, 0
     span = np.array([right - left, 1.5 * height, height])
     lo = np.array([left, g.top + 0.02 * height, 0.0])
@@ -250,7 +263,7 @@ def critical_circle(g: Ground) -> CriticalCircle | None:
         else:
             radii = np.linspace(best[2] - 0.5 * span[2], best[2] + 0.5 * span[2], GRID)
             circles = np.array([(x, y, r) for x, y in centres for r in radii if r > 0.0])
-        factors = bishop(slices(g, circles))
+        factors = bishop(slices(g, circles, region))
         tried += len(circles)
         k = int(np.argmin(factors))
         if not np.isfinite(factors[k]):
@@ -259,6 +272,6 @@ def critical_circle(g: Ground) -> CriticalCircle | None:
             continue
         if best is None or factors[k] <= best_factor:
             best, best_factor = circles[k], float(factors[k])
-    spencer_factor, theta = spencer(slices(g, best[None, :]), 0, best_factor)
+    spencer_factor, theta = spencer(slices(g, best[None, :], region), 0, best_factor)
     return CriticalCircle((float(best[0]), float(best[1])), float(best[2]), best_factor, float(spencer_factor),
                           float(theta), tried)  # fmt: skip

@@ -318,8 +318,10 @@ class SafetyAnalysis(Equilibrium):
             material = m.particle_material.numpy()[:n]
             g_norm = float(np.linalg.norm(g))
             weight = m.particle_mass.numpy()[:n].astype(float) * g_norm
+            where = self.phase.slip_region
             circle = critical_circle(ground(fields["position"], weight, strengths[material, 0], strengths[material, 1],
-                                            fields.get("pore_pressure"), m.dx, water * g_norm))  # fmt: skip
+                                            fields.get("pore_pressure"), m.dx, water * g_norm),
+                                     (where.min[0], where.max[0], where.min[1]))  # fmt: skip
         if circle is None:
             record.limit_equilibrium = [math.nan] * 5
             return
