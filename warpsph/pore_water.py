@@ -6,8 +6,7 @@ zero excess pressure exactly and Darcy's law reads w = k(−∇p + ρ_w b) = −
 report the total pressure p = p_excess + p_h.
 """
 
-from __future__ import annotations
-
+import functools
 import math
 from dataclasses import dataclass
 
@@ -19,6 +18,23 @@ from warpsph.scene import EXTENT_TOLERANCE, STANDARD_GRAVITY, Region, Scene
 from warpsph.stages.surface_water import SurfaceWater, surface_water
 
 DRAINAGE = {"impermeable": 0, "drained": 1, "inflow": 2}
+
+
+@functools.cache
+def water_struct(vec3):
+    """The ``Water`` @wp.struct for positions of type ``vec3``: per material k, 1/Q, ρ_w and n (float64),
+    with the gravity and the water table of the hydrostatic reference, as the pore-water kernels take them."""
+
+    @wp.struct
+    class Water:
+        permeability: wp.array(dtype=wp.float64)
+        inv_biot: wp.array(dtype=wp.float64)
+        density: wp.array(dtype=wp.float64)
+        porosity: wp.array(dtype=wp.float64)
+        gravity: vec3
+        water_table: wp.float64
+
+    return Water
 
 
 @dataclass
@@ -57,6 +73,9 @@ class PoreWaterModel:
     """The scene's :class:`~warpsph.scene.Reservoir` records (host)."""
     surface_water: SurfaceWater
     """The water against the free surfaces: the hydrostatic reference and the reservoirs."""
+    water: object
+    """The per-material arrays above with the gravity and the water table, as one ``Water`` struct
+    (:func:`water_struct`)."""
 
     def drained_plane_particles(self, model) -> tuple[np.ndarray, np.ndarray]:
         """(on, plane): the owned particles lying on drained planes (int32 mask) and the plane's index
@@ -138,13 +157,20 @@ def build_pore_water(scene: Scene, planes_drainage: list, top: float, vec3, grow
 
     nan = float("nan")
     water_table = top if scene.pressure.water_table is None else scene.pressure.water_table
+    water = water_struct(vec3)()
+    water.permeability = arr([m.hydraulic_conductivity / (m.water_density * STANDARD_GRAVITY) for m in mats])
+    water.inv_biot = arr([0.0 if math.isinf(m.biot_modulus) else 1.0 / m.biot_modulus for m in mats])
+    water.density = arr([m.water_density for m in mats])
+    water.porosity = arr([m.porosity for m in mats])
+    water.gravity = vec3(*scene.simulation.gravity)
+    water.water_table = wp.float64(water_table)
     return PoreWaterModel(
         water_table=water_table,
         gravity=tuple(scene.simulation.gravity),
-        material_permeability=arr([m.hydraulic_conductivity / (m.water_density * STANDARD_GRAVITY) for m in mats]),
-        material_inv_biot=arr([0.0 if math.isinf(m.biot_modulus) else 1.0 / m.biot_modulus for m in mats]),
-        material_water_density=arr([m.water_density for m in mats]),
-        material_porosity=arr([m.porosity for m in mats]),
+        material_permeability=water.permeability,
+        material_inv_biot=water.inv_biot,
+        material_water_density=water.density,
+        material_porosity=water.porosity,
         retention=retention_laws(arr([RETENTION[m.retention] for m in mats], wp.int32),
                                  arr([m.retention_alpha for m in mats]), arr([m.retention_n for m in mats]),
                                  arr([m.residual_saturation for m in mats])),
@@ -157,4 +183,5 @@ def build_pore_water(scene: Scene, planes_drainage: list, top: float, vec3, grow
         planes=list(planes_drainage),
         reservoirs=list(scene.reservoirs),
         surface_water=surface_water(scene.simulation.gravity, water_table, scene.reservoirs, device),
+        water=water,
     )

@@ -364,8 +364,8 @@ class Solver:
         else:
             wp.copy(self.held_pressure, state.particle_pore_pressure)
         launch_rows(groundwater_kernels(m.spec)["bishop_excess"], m.particle_count,
-                    [state.particle_q, m.particle_material, pw.material_water_density, m.spec.vec3(*pw.gravity),
-                     wp.float64(pw.water_table), pw.retention, state.particle_pore_pressure, self.held_pressure],
+                    [state.particle_q, m.particle_material, pw.water, pw.retention, state.particle_pore_pressure,
+                     self.held_pressure],
                     m.device)  # fmt: skip
 
     # -- collocated baseline --------------------------------------------------------------------

@@ -115,17 +115,15 @@ class GroundwaterFlow:
         nl = self.lists
         return [m.spec.real(m.h), wp.float64(inv_dt), wp.float64(self.projection.scale), m.particle_count,
                 nl.offsets, nl.indices, self.state.particle_q, m.particle_origin, m.particle_mass,
-                self.state.particle_density, m.particle_material, pw.material_permeability, pw.material_inv_biot,
-                self.relative, self.saturation, self.capacity, self.saturation_start, pw.material_porosity, p_iter,
-                self.p_start, self.coupling_storage, self.coupling_source, m.particle_ghost_source,
-                m.particle_ghost_planes, self.drained, pw.material_water_density,
-                m.spec.vec3(*pw.gravity), wp.float64(pw.water_table), self.dirichlet]  # fmt: skip
+                self.state.particle_density, m.particle_material, pw.water, self.relative, self.saturation,
+                self.capacity, self.saturation_start, p_iter, self.p_start, self.coupling_storage,
+                self.coupling_source, m.particle_ghost_source, m.particle_ghost_planes, self.drained,
+                self.dirichlet]  # fmt: skip
 
     def _retention(self, p, out_saturation=None) -> None:
         m, pw = self.model, self.model.pore
         launch_rows(self.k["retention_fields"], m.particle_count,
-                    [self.state.particle_q, m.particle_material, pw.material_water_density, m.spec.vec3(*pw.gravity),
-                     wp.float64(pw.water_table), pw.retention, pw.material_porosity, p,
+                    [self.state.particle_q, m.particle_material, pw.water, pw.retention, p,
                      out_saturation or self.saturation, self.capacity, self.relative], m.device)  # fmt: skip
 
     def solve(self, t: float, dt: float | None, max_iterations: int = MAX_ITERATIONS,

@@ -7,11 +7,11 @@ import functools
 import warp as wp
 
 from warpsph.physics.retention import RetentionLaws, material_retention_state
+from warpsph.pore_water import water_struct
 from warpsph.sph.kernels import smoothing_functions
 from warpsph.sph.spec import Spec
-from warpsph.stages.boundaries import plane_functions
+from warpsph.stages.boundaries import plane_functions, planes_struct
 from warpsph.stages.linear_solve import apply_row
-from warpsph.stages.boundaries import planes_struct
 from warpsph.stages.pressure_kernels import ETA, fold_conditions, held_row, pressure_kernels
 
 
@@ -25,6 +25,7 @@ def groundwater_kernels(spec: Spec):
     _traction, drainage_here = plane_functions(spec)
     ghost_affine = pressure_kernels(spec)["ghost_affine"]
     Planes = planes_struct(spec)
+    Water = water_struct(vec3)
 
     @wp.func
     def hydrostatic(x: vec3, water_density: f64, gravity: vec3, water_table: f64):
@@ -34,28 +35,26 @@ def groundwater_kernels(spec: Spec):
 
     @wp.kernel(enable_backward=False, module="unique")
     def retention_fields(
-        first: int, q: wp.array(dtype=vec3), material: wp.array(dtype=wp.int32),
-        water_density: wp.array(dtype=f64), gravity: vec3, water_table: f64, retention: RetentionLaws,
-        porosity: wp.array(dtype=f64), p: wp.array(dtype=f64),
+        first: int, q: wp.array(dtype=vec3), material: wp.array(dtype=wp.int32), water: Water,
+        retention: RetentionLaws, p: wp.array(dtype=f64),
         saturation: wp.array(dtype=f64), capacity: wp.array(dtype=f64), relative: wp.array(dtype=f64),
     ):  # fmt: skip
         """S, the specific moisture capacity n dS/dp [1/Pa] and k_r at the excess pressure ``p``."""
         a = first + wp.tid()
         mat = material[a]
-        rho_w = water_density[mat]
-        total = p[a] + hydrostatic(q[a], rho_w, gravity, water_table)
-        s, slope, kr = material_retention_state(retention, mat, rho_w * f64(wp.length(gravity)), total)
+        rho_w = water.density[mat]
+        total = p[a] + hydrostatic(q[a], rho_w, water.gravity, water.water_table)
+        s, slope, kr = material_retention_state(retention, mat, rho_w * f64(wp.length(water.gravity)), total)
         saturation[a] = s
-        capacity[a] = porosity[mat] * slope
+        capacity[a] = water.porosity[mat] * slope
         relative[a] = kr
 
     @wp.func
     def flow_pair(
         a: int, j: int, n: int, h: real, scale: f64, q: wp.array(dtype=vec3), origin: wp.array(dtype=vec3),
         mass: wp.array(dtype=real), density: wp.array(dtype=real), material: wp.array(dtype=wp.int32),
-        permeability: wp.array(dtype=f64), relative: wp.array(dtype=f64), ghost_source: wp.array(dtype=wp.int32),
+        water: Water, relative: wp.array(dtype=f64), ghost_source: wp.array(dtype=wp.int32),
         ghost_chain: wp.array(dtype=wp.vec3i), planes: Planes,
-        water_density: wp.array(dtype=f64), gravity: vec3, water_table: f64,
     ):  # fmt: skip
         """(col, w, s, c, plane) of row a's neighbour j: the pair's Darcy weight V_a V_j κ_aj m_aj with
         κ = twice the harmonic mean of k times the mean k_r, the owned particle ``col`` it reads and
@@ -73,9 +72,8 @@ def groundwater_kernels(spec: Spec):
             g = j - n
             col = ghost_source[g]
             where = real(0.5) * (origin[a] + origin[col])
-            s, c, _s_m, _c_m = ghost_affine(g, ghost_source, ghost_chain, q, where, planes, water_density[mat_j],
-                                            permeability[mat_j] * relative[col], gravity, water_table,
-                                            0)  # fmt: skip
+            s, c, _s_m, _c_m = ghost_affine(g, ghost_source, ghost_chain, q, where, planes, water, mat_j,
+                                            water.permeability[mat_j] * relative[col], 0)  # fmt: skip
             chain = ghost_chain[g]
             for i in range(3):
                 pl = chain[i]
@@ -83,8 +81,8 @@ def groundwater_kernels(spec: Spec):
                     axis = planes.axis[pl]
                     if drainage_here(pl, where, axis, planes.drainage, planes.drained_lo, planes.drained_hi) != 0:
                         plane = pl
-        k_a = permeability[material[a]]
-        k_j = permeability[mat_j]
+        k_a = water.permeability[material[a]]
+        k_j = water.permeability[mat_j]
         k_pair = zero
         if k_a + k_j > zero:
             k_pair = f64(2.0) * k_a * k_j / (k_a + k_j) * (relative[a] + relative[col])
@@ -95,9 +93,8 @@ def groundwater_kernels(spec: Spec):
     @wp.func
     def storage(
         a: int, inv_dt: f64, mass: wp.array(dtype=real), density: wp.array(dtype=real),
-        face_factor: wp.array(dtype=f64), material: wp.array(dtype=wp.int32), inv_biot: wp.array(dtype=f64),
+        face_factor: wp.array(dtype=f64), material: wp.array(dtype=wp.int32), water: Water,
         saturation: wp.array(dtype=f64), capacity: wp.array(dtype=f64), saturation_start: wp.array(dtype=f64),
-        porosity: wp.array(dtype=f64),
         p_iter: wp.array(dtype=f64), p_start: wp.array(dtype=f64), coupling_storage: wp.array(dtype=f64),
         coupling_source: wp.array(dtype=f64),
     ):  # fmt: skip
@@ -106,9 +103,9 @@ def groundwater_kernels(spec: Spec):
         consolidation step (:mod:`warpsph.stages.consolidation`; zero in a flow phase)."""
         mat = material[a]
         vol_a = f64(mass[a] / density[a]) * face_factor[a]
-        d = vol_a * inv_dt * (capacity[a] + saturation[a] * inv_biot[mat] + coupling_storage[a])
-        b = vol_a * inv_dt * (capacity[a] * p_iter[a] - porosity[mat] * (saturation[a] - saturation_start[a])
-                              + saturation[a] * inv_biot[mat] * p_start[a] + coupling_source[a])  # fmt: skip
+        d = vol_a * inv_dt * (capacity[a] + saturation[a] * water.inv_biot[mat] + coupling_storage[a])
+        b = vol_a * inv_dt * (capacity[a] * p_iter[a] - water.porosity[mat] * (saturation[a] - saturation_start[a])
+                              + saturation[a] * water.inv_biot[mat] * p_start[a] + coupling_source[a])  # fmt: skip
         return d, b
 
     @wp.kernel(enable_backward=False, module="unique")
@@ -116,12 +113,11 @@ def groundwater_kernels(spec: Spec):
         first: int, h: real, inv_dt: f64, scale: f64, n: int, offsets: wp.array(dtype=wp.int32),
         nbr: wp.array(dtype=wp.int32), q: wp.array(dtype=vec3), origin: wp.array(dtype=vec3),
         mass: wp.array(dtype=real), density: wp.array(dtype=real), material: wp.array(dtype=wp.int32),
-        permeability: wp.array(dtype=f64), inv_biot: wp.array(dtype=f64), relative: wp.array(dtype=f64),
+        water: Water, relative: wp.array(dtype=f64),
         saturation: wp.array(dtype=f64), capacity: wp.array(dtype=f64), saturation_start: wp.array(dtype=f64),
-        porosity: wp.array(dtype=f64), p_iter: wp.array(dtype=f64), p_start: wp.array(dtype=f64),
+        p_iter: wp.array(dtype=f64), p_start: wp.array(dtype=f64),
         coupling_storage: wp.array(dtype=f64), coupling_source: wp.array(dtype=f64),
-        ghost_source: wp.array(dtype=wp.int32), ghost_chain: wp.array(dtype=wp.vec3i),
-        planes: Planes, water_density: wp.array(dtype=f64), gravity: vec3, water_table: f64,
+        ghost_source: wp.array(dtype=wp.int32), ghost_chain: wp.array(dtype=wp.vec3i), planes: Planes,
         dirichlet: wp.array(dtype=wp.int32), value: wp.array(dtype=f64), face_factor: wp.array(dtype=f64),
         weight: wp.array(dtype=f64), column: wp.array(dtype=wp.int32), diag: wp.array(dtype=f64),
         rhs: wp.array(dtype=f64),
@@ -129,12 +125,11 @@ def groundwater_kernels(spec: Spec):
         """Row a of  V_a [(θ(pᵐ) − θⁿ) + C(pᵐ)(pᵐ⁺¹ − pᵐ) + (S/Q)(pᵐ⁺¹ − pⁿ)]/Δt + Σ_b w_ab (p_a − p_b)ᵐ⁺¹ = 0
         (θ = n S, C = n dS/dp; ``inv_dt`` = 0: the steady state); Dirichlet rows as in the projection."""
         a = first + wp.tid()
-        d, b = storage(a, inv_dt, mass, density, face_factor, material, inv_biot, saturation, capacity,
-                       saturation_start, porosity, p_iter, p_start, coupling_storage, coupling_source)  # fmt: skip
+        d, b = storage(a, inv_dt, mass, density, face_factor, material, water, saturation, capacity,
+                       saturation_start, p_iter, p_start, coupling_storage, coupling_source)  # fmt: skip
         for k in range(offsets[a], offsets[a + 1]):
-            col, w, s, c, _plane = flow_pair(a, nbr[k], n, h, scale, q, origin, mass, density, material,
-                                             permeability, relative, ghost_source, ghost_chain, planes, water_density,
-                                             gravity, water_table)  # fmt: skip
+            col, w, s, c, _plane = flow_pair(a, nbr[k], n, h, scale, q, origin, mass, density, material, water,
+                                             relative, ghost_source, ghost_chain, planes)  # fmt: skip
             w = w * face_factor[a]
             d += w
             b += w * c
@@ -151,12 +146,11 @@ def groundwater_kernels(spec: Spec):
         first: int, h: real, inv_dt: f64, scale: f64, n: int, offsets: wp.array(dtype=wp.int32),
         nbr: wp.array(dtype=wp.int32), q: wp.array(dtype=vec3), origin: wp.array(dtype=vec3),
         mass: wp.array(dtype=real), density: wp.array(dtype=real), material: wp.array(dtype=wp.int32),
-        permeability: wp.array(dtype=f64), inv_biot: wp.array(dtype=f64), relative: wp.array(dtype=f64),
+        water: Water, relative: wp.array(dtype=f64),
         saturation: wp.array(dtype=f64), capacity: wp.array(dtype=f64), saturation_start: wp.array(dtype=f64),
-        porosity: wp.array(dtype=f64), p_iter: wp.array(dtype=f64), p_start: wp.array(dtype=f64),
+        p_iter: wp.array(dtype=f64), p_start: wp.array(dtype=f64),
         coupling_storage: wp.array(dtype=f64), coupling_source: wp.array(dtype=f64),
-        ghost_source: wp.array(dtype=wp.int32), ghost_chain: wp.array(dtype=wp.vec3i),
-        planes: Planes, water_density: wp.array(dtype=f64), gravity: vec3, water_table: f64,
+        ghost_source: wp.array(dtype=wp.int32), ghost_chain: wp.array(dtype=wp.vec3i), planes: Planes,
         dirichlet: wp.array(dtype=wp.int32), face_factor: wp.array(dtype=f64), tag: wp.array(dtype=wp.int32),
         n_tags: int, p: wp.array(dtype=f64), released: wp.array(dtype=f64), discharge: wp.array(dtype=f64),
         stored: wp.array(dtype=f64),
@@ -167,15 +161,14 @@ def groundwater_kernels(spec: Spec):
         [m³/s, per metre in 2D] at which it passes water to the conditioned rows and planes of each
         tag, and ``stored`` the rate at which its water content grows."""
         a = first + wp.tid()
-        d, b = storage(a, inv_dt, mass, density, face_factor, material, inv_biot, saturation, capacity,
-                       saturation_start, porosity, p_iter, p_start, coupling_storage, coupling_source)  # fmt: skip
+        d, b = storage(a, inv_dt, mass, density, face_factor, material, water, saturation, capacity,
+                       saturation_start, p_iter, p_start, coupling_storage, coupling_source)  # fmt: skip
         stored[a] = d * p[a] - b
         for t in range(n_tags):
             discharge[a * n_tags + t] = zero
         for k in range(offsets[a], offsets[a + 1]):
-            col, w, s, c, plane = flow_pair(a, nbr[k], n, h, scale, q, origin, mass, density, material,
-                                            permeability, relative, ghost_source, ghost_chain, planes, water_density,
-                                            gravity, water_table)  # fmt: skip
+            col, w, s, c, plane = flow_pair(a, nbr[k], n, h, scale, q, origin, mass, density, material, water,
+                                            relative, ghost_source, ghost_chain, planes)  # fmt: skip
             w = w * face_factor[a]
             neighbour = s * p[col] + c
             d += w
@@ -194,17 +187,17 @@ def groundwater_kernels(spec: Spec):
 
     @wp.kernel(enable_backward=False, module="unique")
     def bishop_excess(
-        first: int, q: wp.array(dtype=vec3), material: wp.array(dtype=wp.int32), water_density: wp.array(dtype=f64),
-        gravity: vec3, water_table: f64, retention: RetentionLaws, p: wp.array(dtype=f64), out: wp.array(dtype=f64),
+        first: int, q: wp.array(dtype=vec3), material: wp.array(dtype=wp.int32), water: Water,
+        retention: RetentionLaws, p: wp.array(dtype=f64), out: wp.array(dtype=f64),
     ):  # fmt: skip
         """The excess pressure whose total is Bishop's χ p_w, χ = S_e (1 at p_w ≥ 0 and in saturated
         soil): the pore pressure the total stress σ′ − χ p_w I carries."""
         a = first + wp.tid()
         mat = material[a]
-        rho_w = water_density[mat]
-        hydro = hydrostatic(q[a], rho_w, gravity, water_table)
+        rho_w = water.density[mat]
+        hydro = hydrostatic(q[a], rho_w, water.gravity, water.water_table)
         total = p[a] + hydro
-        s, _slope, _kr = material_retention_state(retention, mat, rho_w * f64(wp.length(gravity)), total)
+        s, _slope, _kr = material_retention_state(retention, mat, rho_w * f64(wp.length(water.gravity)), total)
         chi = (s - retention.residual[mat]) / (f64(1.0) - retention.residual[mat])
         out[a] = chi * total - hydro
 

@@ -155,9 +155,7 @@ class PressureProjection:
                                                  m.particle_material, m.particle_ghost_count,
                                                  m.particle_origin)  # fmt: skip
         launch(self.k["pressure_ghosts"], count,
-               [n, src, chain, q, origin, mat, self.planes, pw.material_water_density,
-                pw.material_permeability, m.spec.vec3(*pw.gravity), wp.float64(pw.water_table), int(homogeneous),
-                int(momentum), p],
+               [n, src, chain, q, origin, mat, self.planes, pw.water, int(homogeneous), int(momentum), p],
                m.device)  # fmt: skip
 
     def set_time(self, t: float) -> None:
@@ -196,11 +194,10 @@ class PressureProjection:
         # the solve's unknown: a copy of pⁿ (owned part), drained rows at their values
         x = so.particle_pore_pressure
         wp.copy(x, self.p_old, count=n)
-        gravity = m.spec.vec3(*pw.gravity)
         drained_surface = int(self.settings.free_surface == "drained")
         launch(self.k["mark_dirichlet"], n,
                [0, n, self.on_drained, self.drained_value, rf.smallest_eigenvalue, drained_surface, si.particle_q,
-                m.particle_material, pw.material_water_density, pw.surface_water, self.dirichlet, self.value, x],
+                m.particle_material, pw.water, pw.surface_water, self.dirichlet, self.value, x],
                dev)  # fmt: skip
         if not self._surface_checked:
             self._surface_checked = True
@@ -208,9 +205,8 @@ class PressureProjection:
             self.check_reservoirs(si)
         # the arguments of the pressure fits (``fitted_pressure``) ahead of each kernel's own
         fit_args = [h, n, nl.offsets, nl.indices, si.particle_q, m.particle_origin, m.particle_mass,
-                    si.particle_density, m.particle_material, pw.material_permeability, pw.material_water_density,
-                    gravity, m.particle_ghost_source, m.particle_ghost_planes, self.planes,
-                    wp.float64(pw.water_table)]  # fmt: skip
+                    si.particle_density, m.particle_material, pw.water, m.particle_ghost_source,
+                    m.particle_ghost_planes, self.planes]  # fmt: skip
         if self.settings.stabilisation > 0.0 or self.settings.interior_stabilisation > 0.0:
             launch_rows(self.k["mark_near_surface"], n,
                         [n, nl.offsets, nl.indices, m.particle_ghost_source, rf.smallest_eigenvalue,
@@ -222,10 +218,8 @@ class PressureProjection:
         launch_rows(self.k["assemble"], n,
                [h, real(dt), wp.float64(self.scale), n, nl.offsets, nl.indices, si.particle_q, m.particle_origin,
                 m.particle_mass,
-                si.particle_density, m.particle_material, pw.material_permeability, pw.material_inv_biot,
-                pw.material_water_density, gravity, so.particle_v, self.div_v_star, self.p_old,
-                m.particle_ghost_source, m.particle_ghost_planes, self.planes, wp.float64(pw.water_table),
-                self.dirichlet, self.value, self.face_factor, self.momentum_image, rf.smallest_eigenvalue,
+                si.particle_density, m.particle_material, pw.water, so.particle_v, self.div_v_star, self.p_old,
+                m.particle_ghost_source, m.particle_ghost_planes, self.planes, self.dirichlet, self.value, self.face_factor, self.momentum_image, rf.smallest_eigenvalue,
                 real(self.exterior_threshold), wp.float64(self.lattice_sum), self.roughness, self.near_surface,
                 wp.float64(self.settings.stabilisation), wp.float64(self.settings.interior_stabilisation),
                 self.weight, self.column, self.diag, self.rhs], dev)  # fmt: skip
@@ -320,7 +314,7 @@ class PressureProjection:
         self._gradient(state, state.particle_pore_pressure, homogeneous=False)
         w = wp.zeros(m.particle_count, dtype=wp.vec3d, device=m.device)
         launch(self.k["darcy"], m.particle_count,
-               [self.grad, m.particle_material, m.pore.material_permeability, w], m.device)  # fmt: skip
+               [self.grad, m.particle_material, m.pore.water, w], m.device)  # fmt: skip
         return w.numpy()
 
     def _matrix(self):

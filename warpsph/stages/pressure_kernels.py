@@ -10,6 +10,7 @@ import numpy as np
 import warp as wp
 
 from warpsph.model import PLANE_TRACTION
+from warpsph.pore_water import water_struct
 from warpsph.sph.kernels import kernel_derivative, smoothing_functions
 from warpsph.sph.operators import fit_parts, operator_functions
 from warpsph.sph.spec import Spec
@@ -108,6 +109,7 @@ def pressure_kernels(spec: Spec):
     _traction, drainage_here = plane_functions(spec)
     Planes = planes_struct(spec)
     Fits = fits_struct(spec)
+    Water = water_struct(vec3)
     zero = f64(0.0)
 
     @wp.func
@@ -124,10 +126,11 @@ def pressure_kernels(spec: Spec):
 
     @wp.func
     def ghost_affine(g: int, source: wp.array(dtype=wp.int32), chain: wp.array(dtype=wp.vec3i),
-                     q: wp.array(dtype=vec3), where: vec3, planes: Planes,
-                     water_density: f64, k: f64, gravity: vec3, water_table: f64, homogeneous: int):  # fmt: skip
-        """(s, c, s_m, c_m) with p_ghost = s p_source + c for ghost g (c = 0 when ``homogeneous``);
-        each plane drains (odd parity) where the initial position ``where`` lies in its drained extent.
+                     q: wp.array(dtype=vec3), where: vec3, planes: Planes, water: Water, mat: int, k: f64,
+                     homogeneous: int):  # fmt: skip
+        """(s, c, s_m, c_m) with p_ghost = s p_source + c for ghost g of a source of material ``mat``, whose
+        permeability there is k (c = 0 when ``homogeneous``); each plane drains (odd parity) where the
+        initial position ``where`` lies in its drained extent.
 
         (s_m, c_m) is the parity of the pressure *increment* in the velocity correction: odd also at
         impermeable traction planes, whose total traction t̄ = σ′n − p n is prescribed, so that the
@@ -153,8 +156,8 @@ def pressure_kernels(spec: Spec):
                     if homogeneous == 0:
                         xp = x
                         xp[m] = planes.position[p]
-                        excess = f64(2.0) * plane_excess(p, xp, water_density, gravity, water_table,
-                                                         planes.pressure, planes.head)  # fmt: skip
+                        excess = f64(2.0) * plane_excess(p, xp, water.density[mat], water.gravity,
+                                                         water.water_table, planes.pressure, planes.head)  # fmt: skip
                         c += excess
                         c_m += excess
                 else:
@@ -172,15 +175,13 @@ def pressure_kernels(spec: Spec):
     @wp.kernel(enable_backward=False, module="unique")
     def pressure_ghosts(
         n_owned: int, source: wp.array(dtype=wp.int32), chain: wp.array(dtype=wp.vec3i), q: wp.array(dtype=vec3),
-        origin: wp.array(dtype=vec3), material: wp.array(dtype=wp.int32), planes: Planes,
-        water_density: wp.array(dtype=f64), permeability: wp.array(dtype=f64), gravity: vec3, water_table: f64,
+        origin: wp.array(dtype=vec3), material: wp.array(dtype=wp.int32), planes: Planes, water: Water,
         homogeneous: int, momentum: int, p: wp.array(dtype=f64),
     ):  # fmt: skip
         g = wp.tid()
         src = source[g]
         mat = material[src]
-        s, c, s_m, c_m = ghost_affine(g, source, chain, q, origin[src], planes,
-                                      water_density[mat], permeability[mat], gravity, water_table,
+        s, c, s_m, c_m = ghost_affine(g, source, chain, q, origin[src], planes, water, mat, water.permeability[mat],
                                       homogeneous)  # fmt: skip
         if momentum == 1:
             s = s_m
@@ -259,17 +260,17 @@ def pressure_kernels(spec: Spec):
         v[a] = v[a] - vec3(real(g[0]), real(g[1]), real(g[2]))
 
     @wp.kernel(enable_backward=False, module="unique")
-    def darcy(grad_p: wp.array(dtype=wp.vec3d), material: wp.array(dtype=wp.int32),
-              permeability: wp.array(dtype=f64), w: wp.array(dtype=wp.vec3d)):  # fmt: skip
+    def darcy(grad_p: wp.array(dtype=wp.vec3d), material: wp.array(dtype=wp.int32), water: Water,
+              w: wp.array(dtype=wp.vec3d)):  # fmt: skip
         """w = −k ∇p_excess [m/s]."""
         a = wp.tid()
-        w[a] = -permeability[material[a]] * grad_p[a]
+        w[a] = -water.permeability[material[a]] * grad_p[a]
 
     @wp.kernel(enable_backward=False, module="unique")
     def mark_dirichlet(
         first: int, n: int, on_drained: wp.array(dtype=wp.int32), drained_value: wp.array(dtype=f64),
         eigenvalue: wp.array(dtype=real), drained_surface: int, q: wp.array(dtype=vec3),
-        material: wp.array(dtype=wp.int32), water_density: wp.array(dtype=f64), surface_water: SurfaceWater,
+        material: wp.array(dtype=wp.int32), water: Water, surface_water: SurfaceWater,
         dirichlet: wp.array(dtype=wp.int32), value: wp.array(dtype=f64), p_start: wp.array(dtype=f64),
     ):  # fmt: skip
         """Drained rows and their values: drained planes' particles, free-surface particles under a
@@ -284,7 +285,7 @@ def pressure_kernels(spec: Spec):
             value[a] = drained_value[a]
         elif eigenvalue[a] < real(DRAINED_SURFACE_EIGENVALUE):
             x = q[a]
-            rho_w = water_density[material[a]]
+            rho_w = water.density[material[a]]
             x0, x1, x2 = f64(x[0]), f64(x[1]), f64(x[2])
             wet, pressure = reservoir_pressure(surface_water, rho_w, x0, x1, x2)
             if wet == 1 or drained_surface == 1:
@@ -302,11 +303,9 @@ def pressure_kernels(spec: Spec):
 
     @wp.func
     def fit_source(j: int, a: int, n: int, p: wp.array(dtype=f64), dirichlet: wp.array(dtype=wp.int32),
-                   origin: wp.array(dtype=vec3), material: wp.array(dtype=wp.int32),
-                   permeability: wp.array(dtype=f64), water_density: wp.array(dtype=f64), gravity: vec3,
+                   origin: wp.array(dtype=vec3), material: wp.array(dtype=wp.int32), water: Water,
                    ghost_source: wp.array(dtype=wp.int32), ghost_chain: wp.array(dtype=wp.vec3i),
-                   q: wp.array(dtype=vec3), planes: Planes,
-                   water_table: f64):  # fmt: skip
+                   q: wp.array(dtype=vec3), planes: Planes):  # fmt: skip
         """(1, p_j) if neighbour j takes part in the roughness fit of particle a, else (0, 0): owned
         particles off the Dirichlet rows, and the ghosts of such particles across planes that mirror
         the pressure evenly (impermeable, inflow); a drained plane's odd images would show its jump."""
@@ -320,8 +319,7 @@ def pressure_kernels(spec: Spec):
             return 0, zero
         mat = material[src]
         s, c, s_m, c_m = ghost_affine(g, ghost_source, ghost_chain, q, real(0.5) * (origin[a] + origin[src]),
-                                      planes, water_density[mat],
-                                      permeability[mat], gravity, water_table, 0)  # fmt: skip
+                                      planes, water, mat, water.permeability[mat], 0)  # fmt: skip
         if s < zero:
             return 0, zero
         return 1, s * p[src] + c
@@ -348,9 +346,8 @@ def pressure_kernels(spec: Spec):
     def fitted_pressure(
         a: int, with_self: int, h: real, n: int, offsets: wp.array(dtype=wp.int32), nbr: wp.array(dtype=wp.int32),
         q: wp.array(dtype=vec3), origin: wp.array(dtype=vec3), mass: wp.array(dtype=real),
-        density: wp.array(dtype=real), material: wp.array(dtype=wp.int32), permeability: wp.array(dtype=f64),
-        water_density: wp.array(dtype=f64), gravity: vec3, ghost_source: wp.array(dtype=wp.int32),
-        ghost_chain: wp.array(dtype=wp.vec3i), planes: Planes, water_table: f64,
+        density: wp.array(dtype=real), material: wp.array(dtype=wp.int32), water: Water,
+        ghost_source: wp.array(dtype=wp.int32), ghost_chain: wp.array(dtype=wp.vec3i), planes: Planes,
         dirichlet: wp.array(dtype=wp.int32), p: wp.array(dtype=f64),
     ):  # fmt: skip
         """(Πp [Pa], corrected, found): the linear fit of p at particle a over the neighbours
@@ -369,9 +366,8 @@ def pressure_kernels(spec: Spec):
         for k in range(offsets[a], offsets[a + 1]):
             j = nbr[k]
             if with_self == 1 or source_of(j, n, ghost_source) != a:
-                used, value = fit_source(j, a, n, p, dirichlet, origin, material, permeability, water_density,
-                                         gravity, ghost_source, ghost_chain, q, planes,
-                                         water_table)  # fmt: skip
+                used, value = fit_source(j, a, n, p, dirichlet, origin, material, water, ghost_source, ghost_chain,
+                                         q, planes)  # fmt: skip
                 if used == 1:
                     w0, wr, g0, M, w, g = add_to_fit(q[j] - x, mass[j] / density[j], h, w0, wr, g0, M)
                     wp_sum += f64(w) * value
@@ -401,9 +397,8 @@ def pressure_kernels(spec: Spec):
         def kernel(
             first: int, h: real, n: int, offsets: wp.array(dtype=wp.int32), nbr: wp.array(dtype=wp.int32),
             q: wp.array(dtype=vec3), origin: wp.array(dtype=vec3), mass: wp.array(dtype=real),
-            density: wp.array(dtype=real), material: wp.array(dtype=wp.int32), permeability: wp.array(dtype=f64),
-            water_density: wp.array(dtype=f64), gravity: vec3, ghost_source: wp.array(dtype=wp.int32),
-            ghost_chain: wp.array(dtype=wp.vec3i), planes: Planes, water_table: f64,
+            density: wp.array(dtype=real), material: wp.array(dtype=wp.int32), water: Water,
+            ghost_source: wp.array(dtype=wp.int32), ghost_chain: wp.array(dtype=wp.vec3i), planes: Planes,
             selected: wp.array(dtype=wp.int32), everywhere: int, dirichlet: wp.array(dtype=wp.int32),
             p: wp.array(dtype=f64), out: wp.array(dtype=f64),
         ):  # fmt: skip
@@ -420,9 +415,8 @@ def pressure_kernels(spec: Spec):
             if dirichlet[a] == 1 or not needed:
                 return
             fit, corrected, found = fitted_pressure(a, wp.static(0 if sealed_faces else 1), h, n, offsets, nbr, q,
-                                                    origin, mass, density, material, permeability, water_density,
-                                                    gravity, ghost_source, ghost_chain, planes, water_table, dirichlet,
-                                                    p)  # fmt: skip
+                                                    origin, mass, density, material, water, ghost_source, ghost_chain,
+                                                    planes, dirichlet, p)  # fmt: skip
             if wp.static(sealed_faces):
                 if found == 1:
                     out[a] = fit
@@ -439,10 +433,9 @@ def pressure_kernels(spec: Spec):
         first: int, h: real, dt: real, scale: f64, n: int, offsets: wp.array(dtype=wp.int32),
         nbr: wp.array(dtype=wp.int32), q: wp.array(dtype=vec3), origin: wp.array(dtype=vec3),
         mass: wp.array(dtype=real), density: wp.array(dtype=real), material: wp.array(dtype=wp.int32),
-        permeability: wp.array(dtype=f64), inv_biot: wp.array(dtype=f64),
-        water_density: wp.array(dtype=f64), gravity: vec3, v_star: wp.array(dtype=vec3),
+        water: Water, v_star: wp.array(dtype=vec3),
         div_v_star: wp.array(dtype=f64), p_old: wp.array(dtype=f64), ghost_source: wp.array(dtype=wp.int32),
-        ghost_chain: wp.array(dtype=wp.vec3i), planes: Planes, water_table: f64,
+        ghost_chain: wp.array(dtype=wp.vec3i), planes: Planes,
         dirichlet: wp.array(dtype=wp.int32), value: wp.array(dtype=f64),
         face_factor: wp.array(dtype=f64), momentum_image: wp.array(dtype=f64), eigenvalue: wp.array(dtype=real),
         exterior_threshold: real, lattice_sum: f64, rough: wp.array(dtype=f64), near_surface: wp.array(dtype=wp.int32),
@@ -454,11 +447,11 @@ def pressure_kernels(spec: Spec):
         x = q[a]
         vol_a = f64(mass[a] / density[a]) * face_factor[a]  # a particle on a plane owns half its cell
         mat = material[a]
-        k_a = permeability[mat]
+        k_a = water.permeability[mat]
         dt_rho_a = f64(dt) / f64(density[a])
-        d = vol_a * inv_biot[mat] / f64(dt)
-        b = d * p_old[a] - vol_a * div_v_star[a] - vol_a * inv_biot[mat] * water_density[mat] * f64(
-            wp.dot(gravity, v_star[a]))
+        d = vol_a * water.inv_biot[mat] / f64(dt)
+        b = d * p_old[a] - vol_a * div_v_star[a] - vol_a * water.inv_biot[mat] * water.density[mat] * f64(
+            wp.dot(water.gravity, v_star[a]))
         eta2 = f64(ETA * ETA) * f64(h * h)
         present = zero  # Σ_b V_b m_ab over the neighbours there are [1/m²]
         for k in range(offsets[a], offsets[a + 1]):
@@ -468,7 +461,7 @@ def pressure_kernels(spec: Spec):
             vol_j = f64(mass[j] / density[j])
             present += vol_j * morris
             mat_j = material[j]
-            k_j = permeability[mat_j]
+            k_j = water.permeability[mat_j]
             k_pair = zero  # twice the harmonic mean: flux continuity across layers of contrasting k
             if k_a + k_j > zero:
                 k_pair = f64(4.0) * k_a * k_j / (k_a + k_j)
@@ -486,8 +479,8 @@ def pressure_kernels(spec: Spec):
                 # a pair meeting across a plane drains by its midpoint, as its mirror pair does: the
                 # matrix stays symmetric where a drained extent ends
                 s, cst, s_dt, cst_dt = ghost_affine(g, ghost_source, ghost_chain, q,
-                                                    real(0.5) * (origin[a] + origin[col]), planes, water_density[mat_j],
-                                                    permeability[mat_j], gravity, water_table, 0)  # fmt: skip
+                                                    real(0.5) * (origin[a] + origin[col]), planes, water, mat_j,
+                                                    water.permeability[mat_j], 0)  # fmt: skip
             # a neighbour on an impermeable traction plane is its own odd mirror in the Δt/ρ part
             s_dt = s_dt * momentum_image[col]
             cst_dt = cst_dt * momentum_image[col]
