@@ -79,6 +79,22 @@ def planes_struct(spec: Spec):
 
 
 @functools.cache
+def gravity_struct(spec: Spec):
+    """The ``Gravity`` @wp.struct of ``spec``'s precision: the body force b [m/s²] and, with pore water, the
+    materials' water densities [kg/m³] and the water table [m] that give the water at rest its pressure,
+    as the ghost and prescription kernels take them."""
+    real, vec3 = spec.real, spec.vec3
+
+    @wp.struct
+    class Gravity:
+        b: vec3
+        water_density: wp.array(dtype=wp.float64)
+        water_table: real
+
+    return Gravity
+
+
+@functools.cache
 def _kernels(spec: Spec):
     real, vec3, mat33 = spec.real, spec.vec3, spec.mat33
     two = real(2.0)
@@ -87,13 +103,14 @@ def _kernels(spec: Spec):
     psi = strain_energy_function(spec)
     ElasticMaterials = elastic_struct(spec)
     Planes = planes_struct(spec)
+    Gravity = gravity_struct(spec)
 
     @wp.func
     def pore_pressure_at(i: int, x: vec3, pore: wp.array(dtype=wp.float64), material: wp.array(dtype=wp.int32),
-                         water_density: wp.array(dtype=wp.float64), gravity: vec3, water_table: real):  # fmt: skip
+                         gravity: Gravity):  # fmt: skip
         """Total pore pressure p_excess + ρ_w b·(x − x_wt) of point i at x [Pa] (pore water only)."""
-        shifted = vec3(x[0], x[1] - water_table, x[2])
-        return real(pore[i]) + real(water_density[material[i]]) * wp.dot(gravity, shifted)
+        shifted = vec3(x[0], x[1] - gravity.water_table, x[2])
+        return real(pore[i]) + real(gravity.water_density[material[i]]) * wp.dot(gravity.b, shifted)
 
     @wp.kernel(enable_backward=False, module="unique")
     def update_ghosts(
@@ -101,10 +118,8 @@ def _kernels(spec: Spec):
         source: wp.array(dtype=wp.int32),
         chain: wp.array(dtype=wp.vec3i),
         planes: Planes,
-        gravity: vec3,
+        gravity: Gravity,
         material: wp.array(dtype=wp.int32),
-        water_density: wp.array(dtype=wp.float64),
-        water_table: real,
         pore: wp.array(dtype=wp.float64),
         origin: wp.array(dtype=vec3),
         q: wp.array(dtype=vec3),
@@ -119,7 +134,7 @@ def _kernels(spec: Spec):
         s = stress[src]
         weight = density[src]  # the stress gradient at a wall balances (ρ − ρ_w) b
         if wp.static(pore_water):
-            weight = weight - real(water_density[material[src]])
+            weight = weight - real(gravity.water_density[material[src]])
         on = chain[g]
         for c in range(3):
             p = on[c]
@@ -130,7 +145,7 @@ def _kernels(spec: Spec):
                 x[m] = two * planes.position[p] - x[m]
                 if kind != PLANE_TRACTION:
                     # at rest against a wall ∂σ_nn/∂n = −ρ b·n: continue σ_nn linearly, not evenly
-                    s[m, m] = s[m, m] - two * depth * weight * planes.sign[p] * gravity[m]
+                    s[m, m] = s[m, m] - two * depth * weight * planes.sign[p] * gravity.b[m]
                 if kind == PLANE_FIXED:
                     u = -u
                 elif kind == PLANE_VELOCITY:
@@ -155,8 +170,7 @@ def _kernels(spec: Spec):
                         # drained face is in contact with water at its own pressure, so σ′n = t̄
                         p_face = real(0.0)
                         if drainage_here(p, origin[src], m, planes.drainage, planes.drained_lo, planes.drained_hi) != 1:
-                            p_face = pore_pressure_at(src, q[src], pore, material, water_density, gravity,
-                                                      water_table)  # fmt: skip
+                            p_face = pore_pressure_at(src, q[src], pore, material, gravity)
                         s[m, m] = s[m, m] + two * p_face
         q[n_owned + g] = x
         v[n_owned + g] = u
@@ -168,10 +182,8 @@ def _kernels(spec: Spec):
         particle: wp.array(dtype=wp.int32),
         planes_of: wp.array(dtype=wp.vec3i),
         planes: Planes,
-        gravity: vec3,
+        gravity: Gravity,
         material: wp.array(dtype=wp.int32),
-        water_density: wp.array(dtype=wp.float64),
-        water_table: real,
         pore: wp.array(dtype=wp.float64),
         origin: wp.array(dtype=vec3),
         q: wp.array(dtype=vec3),
@@ -208,8 +220,7 @@ def _kernels(spec: Spec):
                     if wp.static(pore_water):
                         # as for the ghosts: only an impermeable face shares its load
                         if drainage_here(p, origin[a], m, planes.drainage, planes.drained_lo, planes.drained_hi) != 1:
-                            s[m, m] = s[m, m] + pore_pressure_at(a, q[a], pore, material, water_density, gravity,
-                                                                 water_table)  # fmt: skip
+                            s[m, m] = s[m, m] + pore_pressure_at(a, q[a], pore, material, gravity)
         mat = material[a]
         given = real(0.5) * mass[a] * (wp.dot(u, u) - wp.dot(v[a], v[a]))
         given += mass[a] / density[a] * (psi(s, elastic.lam[mat], elastic.shear[mat])
@@ -279,6 +290,12 @@ class Boundaries:
                 counts[p] += 1
         self._on_plane_count = wp.array(counts, dtype=real, device=model.device)
         self.planes = planes_struct(model.spec)()
+        self.gravity = gravity_struct(model.spec)()
+        """The body force and the water at rest (:func:`gravity_struct`)."""
+        self.gravity.b = model.spec.vec3(*model.gravity)
+        if model.pore is not None:
+            self.gravity.water_density = model.pore.material_water_density
+            self.gravity.water_table = model.spec.real(model.pore.water_table)
         """The planes as the kernels take them (their current positions and load factors)."""
         p = self.planes
         p.axis, p.position, p.sign, p.kind = model.plane_axis, self.plane_position, model.plane_sign, model.plane_kind
@@ -320,11 +337,7 @@ class Boundaries:
 
     def _water_args(self, material, pore):
         """Body force and pore-water arguments of the ghost and prescription kernels."""
-        m = self.model
-        if m.pore is None:
-            return [m.spec.vec3(*m.gravity), material, None, m.spec.real(0.0), None]
-        return [m.spec.vec3(*m.gravity), material, m.pore.material_water_density, m.spec.real(m.pore.water_table),
-                pore]  # fmt: skip
+        return [self.gravity, material, pore if self.model.pore is not None else None]
 
     def update_real_ghosts(self, q, v, stress, density, pore=None) -> None:
         """Ghost entries of the real set from their sources (``pore``: their excess pore pressure)."""
