@@ -21,13 +21,12 @@ import numpy as np
 
 from warpsph.errors import SceneError
 from warpsph.lattice import body_bounds, has_lattice_point, lattice_span, polygon_area, used_axes
-from warpsph.physics.retention import RETENTION
 from warpsph.phases import SWITCHED, change_target, phase_label, phase_scene
-from warpsph.scene_plausible import warn_implausible
+from warpsph.material_check import check_materials, needs_plasticity, needs_pore_water
 from warpsph.scene_sections import (AXES, IMPLICIT_PHASE_KINDS, PHASE_KINDS, Body, Boundary, Drainage, Effects, Load,
-                                    Material, Output, Phase, PressureSolver, Probe, Region, Reservoir, Simulation,
+                                    Output, Phase, PressureSolver, Probe, Region, Reservoir, Simulation,
                                     TimeFunction)  # fmt: skip
-from warpsph.scene_types import (FRICTION_ANGLES, NON_NEGATIVE, POSITIVE, UNIT_INTERVAL, WATER_DENSITIES, Interval,
+from warpsph.scene_types import (NON_NEGATIVE, POSITIVE, UNIT_INTERVAL, Interval,
                                  as_string, check_choice, check_instance, check_name, check_range, check_types,
                                  check_unique, convert_field, is_list, item_key, show)  # fmt: skip
 
@@ -49,9 +48,6 @@ PORE_WATER_FIELDS = ("pore_pressure", "darcy_velocity")
 """Probe and output fields that need ``effects.pore_water``."""
 PLASTICITY_FIELDS = ("plastic_strain",)
 """Probe and output fields that need ``effects.plasticity``."""
-YIELD_FUNCTIONS = ("von_mises", "drucker_prager", "mohr_coulomb")
-MIN_MODULUS = 1.0e3
-"""Moduli below this [Pa] are taken for a unit mistake (kPa or MPa written as Pa)."""
 MAX_PARTICLES = 2**31 - 1
 """A run indexes particles with 32-bit integers; a body spanning more lattice points is refused before
 its points are listed (a dx written in mm as metres would otherwise exhaust memory or time)."""
@@ -93,7 +89,7 @@ def _validate_one_phase(scene: Scene) -> None:
         if getattr(scene.effects, effect) and scene.simulation.scheme != "two_set":
             raise SceneError("simulation.scheme", f'the {effect} effect runs with the "two_set" scheme only, '
                              f"got {show(scene.simulation.scheme)}")  # fmt: skip
-    _check_materials(scene.materials, scene.effects)
+    check_materials(scene.materials, scene.effects)
     _check_pressure(scene.pressure)
     bodies = _named_items(scene, "bodies", Body)
     if not bodies:
@@ -120,7 +116,7 @@ def _validate_one_phase(scene: Scene) -> None:
     for i, reservoir in enumerate(reservoirs):
         key = item_key("reservoirs", reservoir.name, i)
         check_types(reservoir, key)
-        _needs_pore_water(key, scene.effects, "a reservoir ")
+        needs_pore_water(key, scene.effects, "a reservoir ")
         _check_region(reservoir.region, f"{key}.region")
         _check_time_function(reservoir.time_function, f"{key}.time_function")
 
@@ -159,7 +155,7 @@ def _check_phases(scene: Scene) -> None:
                              f"only a safety phase runs trials, incremental or not; this phase is {show(phase.kind)}")
         check_choice(f"{key}.pore_pressure", phase.pore_pressure, ("coupled", "fixed"))
         if phase.pore_pressure == "fixed":
-            _needs_pore_water(f"{key}.pore_pressure", scene.effects, '"fixed" pore pressures ')
+            needs_pore_water(f"{key}.pore_pressure", scene.effects, '"fixed" pore pressures ')
         if phase.kind in IMPLICIT_PHASE_KINDS:
             _check_flow_phase(phase, key, scene)
         if phase.kind == "safety" and not scene.effects.plasticity:
@@ -302,117 +298,11 @@ def _check_effects(effects: Effects) -> None:
     check_types(effects, "effects")
 
 
-def _check_materials(materials: dict, effects: Effects) -> None:
-    if not isinstance(materials, dict):
-        raise SceneError("materials", f"expected a table of materials, got {type(materials).__name__}")
-    if not materials:
-        raise SceneError("materials", "at least one material is required, e.g. [materials.soil]")
-    for name, material in materials.items():
-        check_name(f"materials[{show(name)}]", name)
-        key = f"materials.{name}"
-        check_instance(key, material, Material)
-        check_types(material, key)
-        check_choice(f"{key}.model", material.model, ("elastic", "viscoplastic"))
-        if material.model == "viscoplastic":
-            _check_viscoplastic(material, key, effects)
-        check_range(f"{key}.porosity", material.porosity, UNIT_INTERVAL)
-        if material.water_density not in WATER_DENSITIES:
-            raise SceneError(
-                f"{key}.water_density",
-                f"must be {WATER_DENSITIES} kg/m³ (water is about 1000 kg/m³; not g/cm³ or t/m³), "
-                f"got {show(material.water_density)}",
-            )
-        check_range(f"{key}.density", material.density, POSITIVE)
-        if material.grain_density is not None:
-            check_range(f"{key}.grain_density", material.grain_density, POSITIVE)
-            mixture = mixture_density(material)
-            if abs(material.density - mixture) > 1e-9 * mixture:
-                raise SceneError(
-                    f"{key}.density",
-                    "with grain_density given, must be the mixture density "
-                    f"(1 - porosity) grain_density + porosity water_density = {show(mixture)}, "
-                    f"got {show(material.density)}",
-                )
-        check_modulus(f"{key}.youngs_modulus", material.youngs_modulus)
-        check_range(f"{key}.poisson_ratio", material.poisson_ratio, Interval(-1.0, 0.5))
-        check_modulus(f"{key}.grain_bulk_modulus", material.grain_bulk_modulus)
-        check_modulus(f"{key}.water_bulk_modulus", material.water_bulk_modulus)
-        conductivity = material.hydraulic_conductivity
-        check_range(f"{key}.hydraulic_conductivity", conductivity, NON_NEGATIVE)
-        if conductivity > 1.0:
-            raise SceneError(
-                f"{key}.hydraulic_conductivity",
-                "must be <= 1 m/s: k_h is in m/s (not cm/s, nor a permeability in m²) "
-                f"and no soil is more permeable, got {show(conductivity)}",
-            )
-        if material.k0 is not None:
-            check_range(f"{key}.k0", material.k0, NON_NEGATIVE)
-        _check_retention(material, key, effects)
-        warn_implausible(material, key)
-    _check_one_yield_function(materials)
-
-
 MAX_COURANT = {("two_set", "rk2"): (1.5, 1.7), ("two_set", "rk4"): (1.5, 1.7),
                ("collocated", "rk2"): (0.5, 0.6), ("collocated", "rk4"): (1.5, 4.0)}  # fmt: skip
 """Per scheme and integrator: (the largest Courant number accepted, the smallest at which the wave
 column's energy was measured to grow); the first is below the step's stability limit, the second beyond
 it (docs/accuracy.md, *Stability limit*)."""
-
-
-def _check_viscoplastic(material: Material, key: str, effects: Effects) -> None:
-    if not effects.plasticity:
-        raise SceneError(f"{key}.model", '"viscoplastic" needs effects.plasticity = true')
-    check_choice(f"{key}.yield_function", material.yield_function, YIELD_FUNCTIONS)
-    check_range(f"{key}.cohesion", material.cohesion, NON_NEGATIVE)
-    check_range(f"{key}.friction_angle", material.friction_angle, FRICTION_ANGLES)
-    if material.yield_function == "von_mises" or material.friction_angle == 0.0:
-        check_range(f"{key}.cohesion", material.cohesion, POSITIVE)
-    check_range(f"{key}.dilatancy_angle", material.dilatancy_angle,
-                Interval(0.0, material.friction_angle, True, True))  # fmt: skip
-    check_range(f"{key}.residual_cohesion", material.residual_cohesion, Interval(0.0, material.cohesion, True, True))
-    check_range(f"{key}.fluidity", material.fluidity, POSITIVE)
-    check_range(f"{key}.reference_stress", material.reference_stress, POSITIVE)
-    check_range(f"{key}.rate_exponent", material.rate_exponent, Interval(1.0, lo_closed=True, hi_closed=True))
-
-
-def _check_retention(material: Material, key: str, effects: Effects) -> None:
-    check_choice(f"{key}.retention", material.retention, tuple(RETENTION))
-    if material.retention == "saturated":
-        return
-    _needs_pore_water(f"{key}.retention", effects, "a retention curve ")
-    check_range(f"{key}.retention_alpha", material.retention_alpha, POSITIVE)
-    if material.retention == "van_genuchten":
-        check_range(f"{key}.retention_n", material.retention_n, Interval(1.0))
-    check_range(f"{key}.residual_saturation", material.residual_saturation, Interval(0.0, 1.0, lo_closed=True))
-
-
-def _check_one_yield_function(materials: dict) -> None:
-    """The kernels compile one yield function per scene."""
-    first = None
-    for name, material in materials.items():
-        if material.model != "viscoplastic":
-            continue
-        if first is None:
-            first = name, material.yield_function
-        elif material.yield_function != first[1]:
-            raise SceneError(f"materials.{name}.yield_function",
-                             f"all viscoplastic materials of a scene share one yield function, "
-                             f"materials.{first[0]} has {show(first[1])}, got {show(material.yield_function)}")
-
-
-def mixture_density(material: Material) -> float:
-    """Saturated mixture density (1 − n) ρ_s + n ρ_w [kg/m³] of a material with ``grain_density``."""
-    n = material.porosity
-    return (1.0 - n) * material.grain_density + n * material.water_density
-
-
-def check_modulus(key: str, value: float) -> None:
-    """Raise unless the modulus ``value`` [Pa] is positive (inf allowed) and not written in kPa or MPa."""
-    check_range(key, value, POSITIVE)
-    if value < MIN_MODULUS:
-        raise SceneError(
-            key, f"must be >= 1000 Pa: moduli are in Pa, not kPa or MPa (30 MPa is 30e6), got {show(value)}"
-        )
 
 
 def _check_pressure(pressure: PressureSolver) -> None:
@@ -428,23 +318,13 @@ def _check_pressure(pressure: PressureSolver) -> None:
         check_range(f"pressure.{key}", getattr(pressure, key), Interval(0.0, 1.0, lo_closed=True, hi_closed=True))
 
 
-def _needs_pore_water(key: str, effects: Effects, what: str) -> None:
-    if not effects.pore_water:
-        raise SceneError(key, f"{what}needs effects.pore_water = true")
-
-
-def _needs_plasticity(key: str, effects: Effects, what: str) -> None:
-    if not effects.plasticity:
-        raise SceneError(key, f"{what}needs effects.plasticity = true")
-
-
 def _check_body(body: Body, key: str, scene: Scene) -> None:
     check_types(body, key)
     if body.material not in scene.materials:
         defined = ", ".join(show(m) for m in scene.materials)
         raise SceneError(f"{key}.material", f"unknown material {show(body.material)}; defined materials: {defined}")
     if body.pore_pressure != 0.0:
-        _needs_pore_water(f"{key}.pore_pressure", scene.effects, "a non-zero initial pore pressure ")
+        needs_pore_water(f"{key}.pore_pressure", scene.effects, "a non-zero initial pore pressure ")
     check_choice(f"{key}.shape", body.shape, ("box", "polygon", "circle"))
     dim, dx = scene.simulation.dim, scene.simulation.dx
     if body.shape == "box":
@@ -526,7 +406,7 @@ def _check_drainage(drainage: Drainage, key: str, effects: Effects) -> None:
     check_choice(f"{key}.kind", drainage.kind, ("impermeable", "drained", "inflow"))
     _check_time_function(drainage.time_function, f"{key}.time_function")
     if drainage.kind != "impermeable":
-        _needs_pore_water(f"{key}.kind", effects, "")
+        needs_pore_water(f"{key}.kind", effects, "")
     if drainage.extent is not None:
         _check_region(drainage.extent, f"{key}.extent")
 
@@ -593,9 +473,9 @@ def _check_probe(probe: Probe, key: str, scene: Scene) -> None:
         return
     check_choice(f"{key}.field", probe.field, PROBE_FIELDS)
     if probe.field in PORE_WATER_FIELDS:
-        _needs_pore_water(f"{key}.field", scene.effects, f"{show(probe.field)} ")
+        needs_pore_water(f"{key}.field", scene.effects, f"{show(probe.field)} ")
     if probe.field in PLASTICITY_FIELDS:
-        _needs_plasticity(f"{key}.field", scene.effects, f"{show(probe.field)} ")
+        needs_plasticity(f"{key}.field", scene.effects, f"{show(probe.field)} ")
     if probe.kind == "region_mean":
         if probe.region is None:
             raise SceneError(f"{key}.region", 'a "region_mean" probe needs region = { min = [...], max = [...] }')
@@ -610,8 +490,8 @@ def _check_output(output: Output, effects: Effects) -> None:
     for i, name in enumerate(output.fields):
         check_choice(f"output.fields[{i}]", name, OUTPUT_FIELDS)
         if name in PORE_WATER_FIELDS:
-            _needs_pore_water(f"output.fields[{i}]", effects, f"{show(name)} ")
+            needs_pore_water(f"output.fields[{i}]", effects, f"{show(name)} ")
         if name in PLASTICITY_FIELDS:
-            _needs_plasticity(f"output.fields[{i}]", effects, f"{show(name)} ")
+            needs_plasticity(f"output.fields[{i}]", effects, f"{show(name)} ")
     check_range("output.checkpoint_interval", output.checkpoint_interval, NON_NEGATIVE)
     check_range("output.probe_every", output.probe_every, Interval(1.0, lo_closed=True, hi_closed=True))

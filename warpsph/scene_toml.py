@@ -21,7 +21,8 @@ from pathlib import Path
 
 from warpsph.errors import SceneError
 from warpsph.scene import Scene
-from warpsph.scene_check import mixture_density, validate_scene
+from warpsph.material_check import mixture_density
+from warpsph.scene_check import validate_scene
 from warpsph.scene_types import field_hints, from_table
 
 
