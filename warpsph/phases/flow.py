@@ -45,8 +45,6 @@ class Flow(Calculation):
         dt = run.loop.get("dt", phase.time_step or phase.duration / 1000.0)
         stop = math.inf if run.stop_time is None else run.stop_time - run.phase_start_time
         rejected = None  # (change, step) of the first try of a step being retried shorter
-        if stepper is self.split:  # the split's scale of the pressure changes, kept in checkpoints
-            stepper.pressure_scale = run.loop.get("pressure_scale", stepper.pressure_scale)
         while run.phase_time < phase.duration * (1.0 - 1e-12):
             t = run.phase_time
             if t >= stop:
@@ -84,8 +82,6 @@ class Flow(Calculation):
             if stepper is self.flow:
                 run.step_index += 1
                 run.summary.steps += 1
-            else:
-                run.loop["pressure_scale"] = stepper.pressure_scale
             record.criterion = run.loop["time"]
             self.series()
             if not np.all(np.isfinite(run.state.particle_pore_pressure.numpy())):

@@ -19,8 +19,8 @@ MAX_ITERATIONS = 30
 """Fixed-stress iterations of one step before it is retried with half the time step."""
 STEP_CHANGE = 0.02
 """Accuracy of a step: the largest change of pore pressure it may make off the held rows, as a
-fraction of the largest excess pore pressure of the phase so far [-] (a step that changes more is
-retried shorter; backward Euler's error in time is about proportional to it)."""
+fraction of the excess pore pressure that remains (the largest at the step's start or end) [-] (a step
+that changes more is retried shorter; backward Euler's error in time is about proportional to it)."""
 
 
 class FixedStressSplit:
@@ -46,9 +46,7 @@ class FixedStressSplit:
         self.collapsed = False
         """The skeleton did not reach equilibrium in the last step (within the phase's step cap)."""
         self.step_change = 0.0
-        """The last step's largest pressure change over STEP_CHANGE × ``pressure_scale`` [-]."""
-        self.pressure_scale = flow.tolerance
-        """The largest excess pore pressure of the phase so far [Pa] (at least the flow's tolerance)."""
+        """The last step's largest pressure change over STEP_CHANGE × the excess that remains [-]."""
 
     @property
     def discharge(self) -> dict[str, float]:
@@ -69,7 +67,6 @@ class FixedStressSplit:
         self.saved.assign(state)
         wp.copy(self.start_pressure, state.particle_pore_pressure, count=n)
         start = self.start_pressure.numpy()
-        self.pressure_scale = max(self.pressure_scale, float(np.max(np.abs(start), initial=0.0)))
         strain_start = self._strain(state)
         self._seeping = flow.seeping.copy()
         self.collapsed = False
@@ -92,9 +89,13 @@ class FixedStressSplit:
             pressure = state.particle_pore_pressure.numpy()[:n].astype(np.float64)
             residual = pressure - held
             change = float(np.max(np.abs(residual), initial=0.0))
-            scale = max(self.pressure_scale, float(np.max(np.abs(pressure), initial=0.0)))
-            if change < max(flow.tolerance, ITERATION_TOLERANCE * STEP_CHANGE * scale):
-                self.step_change = flow.largest_change / (STEP_CHANGE * scale)
+            # steps and iterations sized on what remains to dissipate: on the phase's largest excess, the
+            # late steps of a decaying excess grew until backward Euler's lag in the decay, and the
+            # iterations' error summed over the steps, were a growing share of it
+            remaining = max(float(np.max(np.abs(start), initial=0.0)), float(np.max(np.abs(pressure), initial=0.0)),
+                            flow.tolerance)  # fmt: skip
+            if change < max(flow.tolerance, ITERATION_TOLERANCE * STEP_CHANGE * remaining):
+                self.step_change = flow.largest_change / (STEP_CHANGE * remaining)
                 return True
             relaxation = self._relaxation(residual, relaxation, last_residual)
             last_residual = residual
