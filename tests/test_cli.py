@@ -38,6 +38,18 @@ def test_validate_estimates_the_run(scenes_dir, tmp_path, capsys):
     assert "warning: 14,002,801 steps" in capsys.readouterr().err
 
 
+def test_validate_reports_a_scene_whose_first_steps_go_unstable(tmp_path, capsys):
+    """A column 1000 times softer than soil under gravity: its timed steps crowd the particles past their
+    neighbour lists; validate still exits 0, with a warning line that says where the run will stop."""
+    from test_scene_errors import BASE
+
+    soft = tmp_path / "soft.toml"
+    soft.write_text(BASE.replace("youngs_modulus = 1e7", "youngs_modulus = 1000.0"))
+    assert main(["validate", str(soft)]) == 0
+    (line,) = [ln for ln in capsys.readouterr().out.splitlines() if "went unstable" in ln]
+    assert "warning: phase dynamic went unstable in its first" in line and "neighbours" in line
+
+
 @pytest.mark.parametrize("text, key", [
     ("[simulation]\ncourrant = 0.5\n", "simulation.courrant"),
     ("[simulation]\ndx = 0.1\n[materials.soil]\npoisson_ratio = 0.5\n"

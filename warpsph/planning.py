@@ -8,6 +8,7 @@ import math
 import time
 from dataclasses import dataclass, field
 
+from warpsph.errors import SimulationError
 from warpsph.phases import default_phases, phase_scene
 from warpsph.scene import IMPLICIT_PHASE_KINDS, Scene
 
@@ -106,24 +107,31 @@ def plan(scene: Scene, device: str | None = None, timed: bool = True) -> RunPlan
         check_reservoirs_reach(model, state)
     first = phase_scene(scene, timed_index) if scene.phases else scene
     dt = first.time_step
-    seconds_per_step = 0.0
+    seconds_per_step, unstable = 0.0, []
     if mechanical and timed:
         phase = phases[mechanical[0]]
         damped = phase.kind in ("equilibrium", "safety")
         solver = Solver(model, damping=phase.damping if damped else None, pore_pressure=phase.pore_pressure)
         scratch = model.state()
         scratch.assign(state)
-        warm_up(solver, Guard(model, first.speed_limit), state, scratch, 0.0, dt)
         start, n = time.perf_counter(), 0
-        while n < TIMED_STEPS and time.perf_counter() - start < TIMED_SECONDS:
-            solver.step(state, scratch, n * dt, dt)
-            state, scratch = scratch, state
-            n += 1
+        try:
+            warm_up(solver, Guard(model, first.speed_limit), state, scratch, 0.0, dt)
+            start = time.perf_counter()
+            while n < TIMED_STEPS and time.perf_counter() - start < TIMED_SECONDS:
+                solver.step(state, scratch, n * dt, dt)
+                state, scratch = scratch, state
+                n += 1
+            solver.check_neighbours()
+        except SimulationError as error:
+            unstable = [f"warning: phase {phase.name} went unstable in its first {n + 1} steps, where the run "
+                        f"will stop: {error}; check the materials' moduli and simulation.courant"]  # fmt: skip
         import warp as wp
 
         wp.synchronize_device(model.device)
-        seconds_per_step = (time.perf_counter() - start) / n
+        seconds_per_step = (time.perf_counter() - start) / max(n, 1)
     steps, capped, frames, notes = count_steps(scene)
+    notes = unstable + notes
     fields = ["position", "pore_pressure", "plastic_strain"] + list(scene.output.fields)
     itemsize = 8 if model.spec.precision == "float64" else 4
     per_frame = model.particle_count * sum(_COMPONENTS.get(f, 1) for f in set(fields)) * itemsize
