@@ -53,7 +53,8 @@ class Calculation:
         return {}
 
     def restore(self, arrays: dict) -> None:
-        """Take back what :meth:`checkpoint_arrays` kept, resuming from a checkpoint's ``arrays`` (its loop restored)."""
+        """Take back what :meth:`checkpoint_arrays` kept, resuming from a checkpoint's ``arrays`` (the run's
+        loop already restored)."""
 
     def warnings(self, record) -> list[str]:
         """One line per thing the phase's result (``record``, a :class:`~warpsph.phases.staging.PhaseRecord`)

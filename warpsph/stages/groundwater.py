@@ -11,7 +11,7 @@ from warpsph.launching import launch_rows
 from warpsph.model import Model, State
 from warpsph.pore_water import PlaneDrainage
 from warpsph.scene import STANDARD_GRAVITY
-from warpsph.stages.groundwater_kernels import groundwater_kernels
+from warpsph.stages.groundwater_kernels import WaterContent, groundwater_kernels
 from warpsph.stages.linear_solve import LinearSolver
 from warpsph.stages.surface_water import wetted_regions
 
@@ -68,6 +68,11 @@ class GroundwaterFlow:
         self.coupling_storage, self.coupling_source = zeros(n), zeros(n)
         """β [1/Pa] and s [-] of a consolidation step's rows (:mod:`warpsph.stages.consolidation`); zero
         in a flow phase."""
+        self.content = WaterContent()
+        """The arrays above as the flow's kernels take them."""
+        for name in ("saturation", "capacity", "relative", "saturation_start", "p_start", "coupling_storage",
+                     "coupling_source"):
+            setattr(self.content, name, getattr(self, name))
         self.discharge_rows = zeros(n * self.n_tags)
         size = max(1, self.lists.indices.shape[0])
         self.weight, self.column = zeros(size), zeros(size, wp.int32)
@@ -115,10 +120,8 @@ class GroundwaterFlow:
         nl = self.lists
         return [m.spec.real(m.h), wp.float64(inv_dt), wp.float64(self.projection.scale), m.particle_count,
                 nl.offsets, nl.indices, self.state.particle_q, m.particle_origin, m.particle_mass,
-                self.state.particle_density, m.particle_material, pw.water, self.relative, self.saturation,
-                self.capacity, self.saturation_start, p_iter, self.p_start, self.coupling_storage,
-                self.coupling_source, m.particle_ghost_source, m.particle_ghost_planes, self.drained,
-                self.dirichlet]  # fmt: skip
+                self.state.particle_density, m.particle_material, pw.water, self.content, p_iter,
+                m.particle_ghost_source, m.particle_ghost_planes, self.drained, self.dirichlet]  # fmt: skip
 
     def _retention(self, p, out_saturation=None) -> None:
         m, pw = self.model, self.model.pore

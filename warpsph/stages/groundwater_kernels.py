@@ -15,6 +15,21 @@ from warpsph.stages.linear_solve import apply_row
 from warpsph.stages.pressure_kernels import ETA, fold_conditions, held_row, pressure_kernels
 
 
+@wp.struct
+class WaterContent:
+    """A flow step's per-particle water content (N,) each: the retention's S, C = n dS/dp [1/Pa] and k_r at
+    the iterate, S and the excess pressure [Pa] at the step's start, and a consolidation step's coupling
+    β [1/Pa] and s [-] (zero in a flow phase)."""
+
+    saturation: wp.array(dtype=wp.float64)
+    capacity: wp.array(dtype=wp.float64)
+    relative: wp.array(dtype=wp.float64)
+    saturation_start: wp.array(dtype=wp.float64)
+    p_start: wp.array(dtype=wp.float64)
+    coupling_storage: wp.array(dtype=wp.float64)
+    coupling_source: wp.array(dtype=wp.float64)
+
+
 @functools.cache
 def groundwater_kernels(spec: Spec):
     """The flow phase's Warp kernels for ``spec``, by name."""
@@ -93,19 +108,18 @@ def groundwater_kernels(spec: Spec):
     @wp.func
     def storage(
         a: int, inv_dt: f64, mass: wp.array(dtype=real), density: wp.array(dtype=real),
-        face_factor: wp.array(dtype=f64), material: wp.array(dtype=wp.int32), water: Water,
-        saturation: wp.array(dtype=f64), capacity: wp.array(dtype=f64), saturation_start: wp.array(dtype=f64),
-        p_iter: wp.array(dtype=f64), p_start: wp.array(dtype=f64), coupling_storage: wp.array(dtype=f64),
-        coupling_source: wp.array(dtype=f64),
+        face_factor: wp.array(dtype=f64), material: wp.array(dtype=wp.int32), water: Water, c: WaterContent,
+        p_iter: wp.array(dtype=f64),
     ):  # fmt: skip
         """(diagonal, rhs) of row a's storage: V_a [C pᵐ⁺¹ + (S/Q) pᵐ⁺¹ + β pᵐ⁺¹]/Δt against
         V_a [C pᵐ − n(S(pᵐ) − Sⁿ) + (S/Q) pⁿ + s]/Δt, with the skeleton's coupling β and s of a
         consolidation step (:mod:`warpsph.stages.consolidation`; zero in a flow phase)."""
         mat = material[a]
         vol_a = f64(mass[a] / density[a]) * face_factor[a]
-        d = vol_a * inv_dt * (capacity[a] + saturation[a] * water.inv_biot[mat] + coupling_storage[a])
-        b = vol_a * inv_dt * (capacity[a] * p_iter[a] - water.porosity[mat] * (saturation[a] - saturation_start[a])
-                              + saturation[a] * water.inv_biot[mat] * p_start[a] + coupling_source[a])  # fmt: skip
+        s, inv_q = c.saturation[a], water.inv_biot[mat]
+        d = vol_a * inv_dt * (c.capacity[a] + s * inv_q + c.coupling_storage[a])
+        b = vol_a * inv_dt * (c.capacity[a] * p_iter[a] - water.porosity[mat] * (s - c.saturation_start[a])
+                              + s * inv_q * c.p_start[a] + c.coupling_source[a])  # fmt: skip
         return d, b
 
     @wp.kernel(enable_backward=False, module="unique")
@@ -113,10 +127,7 @@ def groundwater_kernels(spec: Spec):
         first: int, h: real, inv_dt: f64, scale: f64, n: int, offsets: wp.array(dtype=wp.int32),
         nbr: wp.array(dtype=wp.int32), q: wp.array(dtype=vec3), origin: wp.array(dtype=vec3),
         mass: wp.array(dtype=real), density: wp.array(dtype=real), material: wp.array(dtype=wp.int32),
-        water: Water, relative: wp.array(dtype=f64),
-        saturation: wp.array(dtype=f64), capacity: wp.array(dtype=f64), saturation_start: wp.array(dtype=f64),
-        p_iter: wp.array(dtype=f64), p_start: wp.array(dtype=f64),
-        coupling_storage: wp.array(dtype=f64), coupling_source: wp.array(dtype=f64),
+        water: Water, content: WaterContent, p_iter: wp.array(dtype=f64),
         ghost_source: wp.array(dtype=wp.int32), ghost_chain: wp.array(dtype=wp.vec3i), planes: Planes,
         dirichlet: wp.array(dtype=wp.int32), value: wp.array(dtype=f64), face_factor: wp.array(dtype=f64),
         weight: wp.array(dtype=f64), column: wp.array(dtype=wp.int32), diag: wp.array(dtype=f64),
@@ -125,11 +136,10 @@ def groundwater_kernels(spec: Spec):
         """Row a of  V_a [(θ(pᵐ) − θⁿ) + C(pᵐ)(pᵐ⁺¹ − pᵐ) + (S/Q)(pᵐ⁺¹ − pⁿ)]/Δt + Σ_b w_ab (p_a − p_b)ᵐ⁺¹ = 0
         (θ = n S, C = n dS/dp; ``inv_dt`` = 0: the steady state); Dirichlet rows as in the projection."""
         a = first + wp.tid()
-        d, b = storage(a, inv_dt, mass, density, face_factor, material, water, saturation, capacity,
-                       saturation_start, p_iter, p_start, coupling_storage, coupling_source)  # fmt: skip
+        d, b = storage(a, inv_dt, mass, density, face_factor, material, water, content, p_iter)
         for k in range(offsets[a], offsets[a + 1]):
             col, w, s, c, _plane = flow_pair(a, nbr[k], n, h, scale, q, origin, mass, density, material, water,
-                                             relative, ghost_source, ghost_chain, planes)  # fmt: skip
+                                             content.relative, ghost_source, ghost_chain, planes)  # fmt: skip
             w = w * face_factor[a]
             d += w
             b += w * c
@@ -146,10 +156,7 @@ def groundwater_kernels(spec: Spec):
         first: int, h: real, inv_dt: f64, scale: f64, n: int, offsets: wp.array(dtype=wp.int32),
         nbr: wp.array(dtype=wp.int32), q: wp.array(dtype=vec3), origin: wp.array(dtype=vec3),
         mass: wp.array(dtype=real), density: wp.array(dtype=real), material: wp.array(dtype=wp.int32),
-        water: Water, relative: wp.array(dtype=f64),
-        saturation: wp.array(dtype=f64), capacity: wp.array(dtype=f64), saturation_start: wp.array(dtype=f64),
-        p_iter: wp.array(dtype=f64), p_start: wp.array(dtype=f64),
-        coupling_storage: wp.array(dtype=f64), coupling_source: wp.array(dtype=f64),
+        water: Water, content: WaterContent, p_iter: wp.array(dtype=f64),
         ghost_source: wp.array(dtype=wp.int32), ghost_chain: wp.array(dtype=wp.vec3i), planes: Planes,
         dirichlet: wp.array(dtype=wp.int32), face_factor: wp.array(dtype=f64), tag: wp.array(dtype=wp.int32),
         n_tags: int, p: wp.array(dtype=f64), released: wp.array(dtype=f64), discharge: wp.array(dtype=f64),
@@ -161,14 +168,13 @@ def groundwater_kernels(spec: Spec):
         [m³/s, per metre in 2D] at which it passes water to the conditioned rows and planes of each
         tag, and ``stored`` the rate at which its water content grows."""
         a = first + wp.tid()
-        d, b = storage(a, inv_dt, mass, density, face_factor, material, water, saturation, capacity,
-                       saturation_start, p_iter, p_start, coupling_storage, coupling_source)  # fmt: skip
+        d, b = storage(a, inv_dt, mass, density, face_factor, material, water, content, p_iter)
         stored[a] = d * p[a] - b
         for t in range(n_tags):
             discharge[a * n_tags + t] = zero
         for k in range(offsets[a], offsets[a + 1]):
             col, w, s, c, plane = flow_pair(a, nbr[k], n, h, scale, q, origin, mass, density, material, water,
-                                            relative, ghost_source, ghost_chain, planes)  # fmt: skip
+                                            content.relative, ghost_source, ghost_chain, planes)  # fmt: skip
             w = w * face_factor[a]
             neighbour = s * p[col] + c
             d += w
