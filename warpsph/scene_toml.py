@@ -1,14 +1,10 @@
 """Reading scenes from TOML files (format: ``docs/scenes.md``).
 
-The file mirrors the dataclasses of :mod:`warpsph.scene`: ``[simulation]``, ``[effects]`` and
-``[pressure]`` and ``[output]`` tables, one ``[materials.<name>]`` table per material and
-``[[bodies]]``, ``[[boundaries]]``, ``[[loads]]`` and ``[[probes]]`` arrays of tables (nested
-dataclasses such as ``drainage`` are inline tables). The accepted keys are the dataclass fields, so
-the format follows the dataclasses. Every problem raises :class:`~warpsph.errors.SceneError` naming
-its key path.
-
-One rule goes beyond the dataclasses: a material gives either ``density`` (the saturated mixture)
-or ``grain_density``, from which ``density`` is set to the mixture (1 − n) ρ_s + n ρ_w.
+The file mirrors the dataclasses of :mod:`warpsph.scene`, table for dataclass and key for field (nested
+dataclasses such as ``drainage`` are inline tables); every problem raises
+:class:`~warpsph.errors.SceneError` naming its key path. One rule goes beyond the dataclasses: a material
+gives either ``density`` (the saturated mixture) or ``grain_density``, from which ``density`` is set to
+the mixture (1 − n) ρ_s + n ρ_w.
 """
 
 from __future__ import annotations

@@ -5,10 +5,9 @@ Half step, at the virtual points i, from the real particles' values Φⁿ = (v, 
 Full step, at the real particles a, from the virtual points' Φ^{n+½}:
     Φ_a^{n+1} = Φ_aⁿ + Δt (∇·σ′/ρ + b,  D:d) + ΔS(Δt)
 with values and gradients from the corrected linear fit (:mod:`warpsph.sph.operators`), ΔS the
-Runge–Kutta increment of the Jaumann and Perzyna sources, and, in the free-surface band, the weak
-surface term of the traction (docs/method.md, *Boundaries*, "Choice — the surface term per unit of
-the particle's share" and *The weight of the soil*). The kernels also move the points, advance the
-densities by continuity and book the step's energy (docs/method.md, *Energy balance*).
+Runge–Kutta increment of the Jaumann and Perzyna sources and, in the free-surface band, the weak
+surface term of the traction; the kernels also move the points, advance the densities and book the
+step's energy (docs/method.md, *One step*, *Operators*, *Energy balance*).
 """
 
 import functools
