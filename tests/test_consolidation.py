@@ -75,14 +75,15 @@ def test_terzaghi_by_consolidation_phase(coarse):
 
 
 def test_late_steps_are_sized_on_what_remains_to_dissipate(tmp_path):
-    """Δx = 1 m to T_v = 1: the steps' accuracy follows the excess that remains, so the pressure's error
-    does not grow as it decays (measured: L2 2.1e-3 p₀ at T_v = 0.2, 3.2e-3 at 0.6, 2.3e-3 at 1.0, U
-    within 0.01 from T_v = 0.3 on; sized on the phase's largest excess the L2 grew to 5.5e-3 at T_v = 0.8)."""
-    Run(consolidation_scene(1.0, tv_end=1.0, frames=5), tmp_path).run()
+    """Δx = 1 m to T_v = 0.8: the steps' accuracy follows the excess that remains, so the pressure's error
+    does not grow as it decays (measured: L2 2.1e-3, 3.2e-3, 3.3e-3, 2.9e-3 p₀ at T_v = 0.2, 0.4, 0.6, 0.8
+    and 2.3e-3 at 1.0, U within 0.01; sized on the phase's largest excess the L2 grew to 4.1e-3, 5.1e-3 and
+    5.5e-3 at T_v = 0.4, 0.6 and 0.8)."""
+    Run(consolidation_scene(1.0, tv_end=0.8, frames=4), tmp_path).run()
     rows = errors(tmp_path, 1.0)
     l2 = [r[1] for r in rows]
-    assert max(l2) < 0.004 and l2[-1] <= l2[2]
-    assert all(abs(du) < 0.01 for tv, _, du, _ in rows if tv > 0.25)
+    assert max(l2) < 0.004 and l2[-1] <= l2[-2]
+    assert all(abs(du) < 0.01 for _, _, du, _ in rows)
 
 
 @pytest.mark.slow
