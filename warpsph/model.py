@@ -183,6 +183,15 @@ class State:
         for name, arr in other.arrays().items():
             wp.copy(getattr(self, name), arr)
 
+    def host_copy(self) -> dict[str, np.ndarray]:
+        """A copy of every array on the host, by name (:meth:`assign_host` puts it back)."""
+        return {name: arr.numpy().copy() for name, arr in self.arrays().items()}
+
+    def assign_host(self, arrays: dict[str, np.ndarray]) -> None:
+        """Copy the host ``arrays`` of :meth:`host_copy` into this state."""
+        for name, arr in self.arrays().items():
+            arr.assign(arrays[name])
+
 
 def host_fields(model: Model, state: State, rows: np.ndarray | None = None,
                 index: wp.array | None = None) -> dict[str, np.ndarray]:  # fmt: skip

@@ -45,14 +45,6 @@ class PoreWaterModel:
     """Level y_wt of the hydrostatic reference [m]."""
     gravity: tuple
     """Body force b [m/s²] (the scene's gravity)."""
-    material_permeability: wp.array
-    """(n_materials,) k = k_h/(ρ_w g) [m³·s/kg]."""
-    material_inv_biot: wp.array
-    """(n_materials,) 1/Q [1/Pa]."""
-    material_water_density: wp.array
-    """(n_materials,) ρ_w [kg/m³]."""
-    material_porosity: wp.array
-    """(n_materials,) n [-]."""
     retention: RetentionLaws
     """Each material's water retention law, α, n and S_r (:class:`~warpsph.physics.retention.RetentionLaws`)."""
     plane_drainage: wp.array
@@ -74,8 +66,24 @@ class PoreWaterModel:
     surface_water: SurfaceWater
     """The water against the free surfaces: the hydrostatic reference and the reservoirs."""
     water: object
-    """The per-material arrays above with the gravity and the water table, as one ``Water`` struct
-    (:func:`water_struct`)."""
+    """Per material (n_materials,) k = k_h/(ρ_w g) [m³·s/kg], 1/Q [1/Pa], ρ_w [kg/m³] and n [-], with the
+    gravity and the water table, as one ``Water`` struct (:func:`water_struct`)."""
+
+    @property
+    def material_permeability(self) -> wp.array:
+        return self.water.permeability
+
+    @property
+    def material_inv_biot(self) -> wp.array:
+        return self.water.inv_biot
+
+    @property
+    def material_water_density(self) -> wp.array:
+        return self.water.density
+
+    @property
+    def material_porosity(self) -> wp.array:
+        return self.water.porosity
 
     def drained_plane_particles(self, model) -> tuple[np.ndarray, np.ndarray]:
         """(on, plane): the owned particles lying on drained planes (int32 mask) and the plane's index
@@ -167,10 +175,6 @@ def build_pore_water(scene: Scene, planes_drainage: list, top: float, vec3, grow
     return PoreWaterModel(
         water_table=water_table,
         gravity=tuple(scene.simulation.gravity),
-        material_permeability=water.permeability,
-        material_inv_biot=water.inv_biot,
-        material_water_density=water.density,
-        material_porosity=water.porosity,
         retention=retention_laws(arr([RETENTION[m.retention] for m in mats], wp.int32),
                                  arr([m.retention_alpha for m in mats]), arr([m.retention_n for m in mats]),
                                  arr([m.residual_saturation for m in mats])),

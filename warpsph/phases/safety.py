@@ -342,10 +342,9 @@ class SafetyAnalysis(Equilibrium):
         phase's start. The outcome carries the frame of its last state (None where the run guard
         stopped it: a mechanism ran away, the trial failed) and, where it stood, that state."""
         run, phase = self.run, self.phase
-        start = {name: arr.numpy().copy() for name, arr in run.state.arrays().items()}
+        start = run.state.host_copy()
         if phase.incremental and self.standing is not None and self.standing[0] < factor:
-            for name, arr in run.state.arrays().items():
-                arr.assign(self.standing[1][name])
+            run.state.assign_host(self.standing[1])
             run.scratch.assign(run.state)
         materials = list(run.phase_scene.materials.values())
         spec, device = run.model.spec, run.model.device
@@ -365,12 +364,9 @@ class SafetyAnalysis(Equilibrium):
         except SimulationError:
             ratio, moved, energy, why = math.inf, math.inf, math.inf, RAN_AWAY
         frame = run.frame()._replace(balance=run.balance_since_start()) if math.isfinite(moved) else None
-        end = None
-        if why == CONVERGED_WHY and phase.incremental:  # where later trials start from
-            end = {name: arr.numpy().copy() for name, arr in run.state.arrays().items()}
+        end = run.state.host_copy() if why == CONVERGED_WHY and phase.incremental else None  # later trials' start
         steps = run.step_index - first
-        for name, arr in run.state.arrays().items():
-            arr.assign(start[name])
+        run.state.assign_host(start)
         run.scratch.assign(run.state)
         run.step_index = first
         run.start_energy()
