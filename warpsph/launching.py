@@ -59,12 +59,12 @@ def launch(kernel, dim: int, inputs: list, device) -> None:
 
 
 def launch_rows(kernel, rows: int, inputs: list, device, rows_per_item: int = 1,
-                min_rows_per_thread: int | None = None) -> None:  # fmt: skip
-    """Launch row kernel ``kernel`` over rows [0, ``rows``) (``inputs`` without ``first``); on the CPU
-    in ``cpu_threads()`` concurrent chunks of at least ``min_rows_per_thread`` rows (default
-    MIN_ROWS_PER_THREAD; cheap rows need more to pay for a thread). A kernel whose thread handles a
-    block of ``rows_per_item`` matrix rows (a blocked reduction) counts its items as that many rows
-    when the chunk count is chosen."""
+                min_rows_per_thread: int | None = None, start: int = 0) -> None:  # fmt: skip
+    """Launch row kernel ``kernel`` over rows [``start``, ``start`` + ``rows``) (``inputs`` without
+    ``first``); on the CPU in ``cpu_threads()`` concurrent chunks of at least ``min_rows_per_thread``
+    rows (default MIN_ROWS_PER_THREAD; cheap rows need more to pay for a thread). A kernel whose thread
+    handles a block of ``rows_per_item`` matrix rows (a blocked reduction) counts its items as that
+    many rows when the chunk count is chosen."""
     global _pool
     if rows == 0:
         return
@@ -74,14 +74,14 @@ def launch_rows(kernel, rows: int, inputs: list, device, rows_per_item: int = 1,
         chunks = max(1, min(_threads, rows * rows_per_item // (min_rows_per_thread or MIN_ROWS_PER_THREAD)))
     _loaded.add((kernel, str(device)))  # the first launch loads (or compiles) the module: one thread
     if chunks == 1:
-        wp.launch(kernel, dim=rows, inputs=[0, *inputs], device=device)
+        wp.launch(kernel, dim=rows, inputs=[start, *inputs], device=device)
         return
     if _pool is None:
         _pool = ThreadPoolExecutor(max_workers=_threads - 1, thread_name_prefix="warpsph-launch")
-    bounds = [rows * k // chunks for k in range(chunks + 1)]
+    bounds = [start + rows * k // chunks for k in range(chunks + 1)]
     futures = [_pool.submit(wp.launch, kernel, dim=bounds[k + 1] - bounds[k], inputs=[bounds[k], *inputs],
                             device=device) for k in range(1, chunks)]  # fmt: skip
-    wp.launch(kernel, dim=bounds[1], inputs=[0, *inputs], device=device)
+    wp.launch(kernel, dim=bounds[1] - start, inputs=[start, *inputs], device=device)
     for f in futures:
         f.result()
 

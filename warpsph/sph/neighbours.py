@@ -29,17 +29,18 @@ def _kernels(spec: Spec):
         radius: real,
         same_set: int,
         width: int,
+        table_start: int,
         counts: wp.array(dtype=wp.int32),
         padded: wp.array(dtype=wp.int32),
         overflow: wp.array(dtype=wp.int32),
     ):
         """One query pass (a row kernel): the neighbour count of every query point and its first
-        ``width`` neighbours in row ``a`` of the padded table; ``overflow[0]`` = 1 where a count
-        exceeds ``width`` (the only value any row stores there, so concurrent rows cannot race)."""
+        ``width`` neighbours in row ``a − table_start`` of the padded table; ``overflow[0]`` = 1 where a
+        count exceeds ``width`` (the only value any row stores there, so concurrent rows cannot race)."""
         a = first + wp.tid()
         x = query[a]
         n = int(0)
-        row = a * width
+        row = (a - table_start) * width
         r2 = radius * radius
         for b in wp.hash_grid_query(grid, x, radius):
             if same_set == 1 and b == a:
@@ -56,18 +57,26 @@ def _kernels(spec: Spec):
         counts[a] = n
 
     @wp.kernel(enable_backward=False, module="unique")
+    def place(first: int, table_start: int, scanned: wp.array(dtype=wp.int32), offsets: wp.array(dtype=wp.int32)):
+        """End offset of row ``a`` (a row kernel): the chunk's start offset ``offsets[table_start]`` plus
+        the inclusive scan of the chunk's counts."""
+        a = first + wp.tid()
+        offsets[a + 1] = offsets[table_start] + scanned[a - table_start]
+
+    @wp.kernel(enable_backward=False, module="unique")
     def compact(
         first: int,
         n_query: int,
         width: int,
+        table_start: int,
         padded: wp.array(dtype=wp.int32),
         offsets: wp.array(dtype=wp.int32),
         indices: wp.array(dtype=wp.int32),
         overflow: wp.array(dtype=wp.int32),
     ):
-        """Copy row ``a`` of the padded table to its CSR place (a row kernel), within the room of
-        ``indices``: offsets past it are clamped to it (each row clamps its own start, the last row the
-        end too; a row reading its neighbour's clamps it alike) and ``overflow[1]`` = 1."""
+        """Copy row ``a − table_start`` of the padded table to its CSR place (a row kernel), within the
+        room of ``indices``: offsets past it are clamped to it (each row clamps its own start, the last
+        row the end too; a row reading its neighbour's clamps it alike) and ``overflow[1]`` = 1."""
         a = first + wp.tid()
         room = indices.shape[0]
         start = wp.min(offsets[a], room)
@@ -75,14 +84,14 @@ def _kernels(spec: Spec):
         if end > room:
             end = room
             overflow[1] = 1
-        row = a * width
+        row = (a - table_start) * width
         for k in range(end - start):
             indices[start + k] = padded[row + k]
         offsets[a] = start
         if a == n_query - 1:
             offsets[a + 1] = end
 
-    return gather, compact
+    return gather, place, compact
 
 
 def grid_dims(extent: np.ndarray, cell: float, dim: int, max_cells: int = 256) -> tuple[int, int, int]:
@@ -96,22 +105,26 @@ def grid_dims(extent: np.ndarray, cell: float, dim: int, max_cells: int = 256) -
 
 
 class NeighbourScratch:
-    """What a build needs only while it runs: the hash grid of the sources and the padded table of
-    the query pass. Lists built one after the other share one (the solver's lists do), so these
-    exist once, not once per list."""
+    """What a build needs only while it runs: the hash grid of the sources, the padded table of one
+    chunk's query pass and the scan of its counts. Lists built one after the other share one (the
+    solver's lists do), so these exist once, not once per list."""
 
     def __init__(self, spec: Spec, extent: np.ndarray, radius: float, device):
         nx, ny, nz = grid_dims(np.asarray(extent, dtype=float), radius, spec.dim)
         self.grid = wp.HashGrid(nx, ny, nz, device=device, dtype=spec.real)
         self.padded = wp.zeros(1, dtype=wp.int32, device=device)
-        """(n_query × width,) int32 padded neighbour table of the last query pass."""
+        """(chunk rows × width,) int32 padded neighbour table of the last chunk's query pass."""
+        self.scanned = wp.zeros(1, dtype=wp.int32, device=device)
+        """(chunk rows,) int32 inclusive scan of the last chunk's counts."""
         self.device = device
 
-    def table(self, size: int) -> wp.array:
-        """The padded table, grown to at least ``size`` entries."""
-        if self.padded.shape[0] < size:
-            self.padded = wp.empty(size, dtype=wp.int32, device=self.device)
-        return self.padded
+    def table(self, rows: int, width: int) -> tuple[wp.array, wp.array]:
+        """The padded table and the scan, grown to at least ``rows`` × ``width`` and ``rows`` entries."""
+        if self.padded.shape[0] < rows * width:
+            self.padded = wp.empty(rows * width, dtype=wp.int32, device=self.device)
+        if self.scanned.shape[0] < rows:
+            self.scanned = wp.empty(rows, dtype=wp.int32, device=self.device)
+        return self.padded, self.scanned
 
 
 class NeighbourList:
@@ -120,20 +133,23 @@ class NeighbourList:
     ``offsets`` (n_query + 1,) int32 and ``indices`` int32: the neighbours of query point a are
     ``indices[offsets[a]:offsets[a+1]]``, in hash-grid cell order.
 
-    A build makes one hash-grid query pass: it stores up to ``width`` neighbours per query point
-    in a padded (n_query, width) table (:class:`NeighbourScratch`) while counting them, then scans
-    the counts and compacts the table into CSR. A build of as many points as the last reads nothing
-    from the device: it marks on the device a point with more neighbours than ``width`` (which keeps
-    its first ``width``) or more pairs than ``indices`` holds, and :meth:`check`, called at the run's
-    check cadence, reads the marks and grows the room ahead of need (``GROWTH`` over the largest count,
-    ``INDEX_HEADROOM`` over the pairs). The first build, and one of a different number of points,
-    sizes the room exactly, reading the device.
+    A build makes one hash-grid query pass in ``CHUNKS`` chunks of rows: each chunk stores up to
+    ``width`` neighbours per query point in a padded table (:class:`NeighbourScratch`, one chunk's
+    rows, so a quarter of the points') while counting them, scans its counts onto the offsets of the
+    chunks before it and compacts its table into CSR. A build of as many points as the last reads
+    nothing from the device: it marks on the device a point with more neighbours than ``width``
+    (which keeps its first ``width``) or more pairs than ``indices`` holds, and :meth:`check`, called
+    at the run's check cadence, reads the marks and grows the room ahead of need (``GROWTH`` over the
+    largest count, ``INDEX_HEADROOM`` over the pairs). The first build, and one of a different number
+    of points, sizes the room exactly, reading the device.
     """
 
     GROWTH = 1.25
     """Room of the padded table over the largest neighbour count seen [-]."""
     INDEX_HEADROOM = 1.1
     """Room of the CSR indices over the pairs seen [-]."""
+    CHUNKS = 4
+    """Chunks of rows a build's query pass is split into: the padded table holds one chunk's rows."""
 
     def __init__(self, spec: Spec, extent: np.ndarray, radius: float, device, same_set: bool = False,
                  scratch: NeighbourScratch | None = None):  # fmt: skip
@@ -170,31 +186,30 @@ class NeighbourList:
         if n_query == 0:
             self.offsets.zero_()
             return
+        self.offsets[:1].zero_()
         args = [wp.uint64(grid.id), query, src, real(self.radius), int(self.same_set)]
         if not sized:
             self._size(args)
-        padded = self._gather(args)
-        self.counts[n_query : n_query + 1].zero_()
-        wp.utils.array_scan(self.counts[: n_query + 1], self.offsets[: n_query + 1], inclusive=False)
-        if not sized:
-            self._room(self.n_pairs)
-        compact = _kernels(self.spec)[1]
-        launch_rows(compact, n_query, [n_query, self.width, padded, self.offsets, self.indices, self.overflow],
-                    self.device)  # fmt: skip
-
-    def _gather(self, args: list) -> wp.array:
-        """One query pass into the padded table at the current ``width``; the table."""
-        padded = self.scratch.table(self.n_query * self.width)
-        launch_rows(_kernels(self.spec)[0], self.n_query, [*args, self.width, self.counts, padded, self.overflow],
-                    self.device)  # fmt: skip
-        return padded
+        gather, place, compact = _kernels(self.spec)
+        rows = -(-n_query // self.CHUNKS)
+        padded, scanned = self.scratch.table(rows, self.width)
+        for start in range(0, n_query, rows):
+            chunk = min(rows, n_query - start)
+            launch_rows(gather, chunk, [*args, self.width, start, self.counts, padded, self.overflow], self.device,
+                        start=start)  # fmt: skip
+            wp.utils.array_scan(self.counts[start : start + chunk], scanned[:chunk], inclusive=True)
+            launch_rows(place, chunk, [start, scanned, self.offsets], self.device, start=start)
+            launch_rows(compact, chunk, [n_query, self.width, start, padded, self.offsets, self.indices,
+                                         self.overflow], self.device, start=start)  # fmt: skip
 
     def _size(self, args: list) -> None:
-        """The ``width`` a build of these points needs, ``GROWTH`` over the largest count, from a query
-        pass that only counts (reads the device)."""
-        launch_rows(_kernels(self.spec)[0], self.n_query, [*args, 0, self.counts, self.scratch.padded, self._sizing],
-                    self.device)  # fmt: skip
-        self.width = int(self.counts.numpy()[: self.n_query].max() * self.GROWTH) + 1
+        """The ``width`` a build of these points needs, ``GROWTH`` over the largest count, and the room of
+        ``indices``, from a query pass that only counts (reads the device)."""
+        launch_rows(_kernels(self.spec)[0], self.n_query,
+                    [*args, 0, 0, self.counts, self.scratch.padded, self._sizing], self.device)  # fmt: skip
+        counts = self.counts.numpy()[: self.n_query]
+        self.width = int(counts.max() * self.GROWTH) + 1
+        self._room(int(counts.sum()))
 
     def _room(self, pairs: int) -> None:
         """``indices`` grown to ``INDEX_HEADROOM`` over ``pairs`` where it holds less."""
