@@ -234,7 +234,7 @@ def test_surface_detection(kernel, dim):
 @functools.cache
 def _used_axes_products(spec: Spec):
     vec3, mat33 = spec.vec3, spec.mat33
-    outer_of_used_rows, apply_on_used_axes = used_axes_algebra(spec)
+    outer_of_used_rows, apply_on_used_axes, used_block_of = used_axes_algebra(spec)
 
     @wp.kernel(enable_backward=False, module="unique")
     def products(a: wp.array(dtype=vec3), b: wp.array(dtype=vec3), M: wp.array(dtype=mat33),
@@ -243,7 +243,7 @@ def _used_axes_products(spec: Spec):
         i = wp.tid()
         outer[i] = outer_of_used_rows(a[i], b[i])
         outer_full[i] = wp.outer(a[i], b[i])
-        applied[i] = apply_on_used_axes(M[i], a[i])
+        applied[i] = apply_on_used_axes(used_block_of(M[i]), a[i])
         applied_full[i] = M[i] * a[i]
 
     return products

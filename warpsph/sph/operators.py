@@ -18,13 +18,26 @@ body, ≈0.07 at a 3D box corner), the fit falls back to Shepard + uncorrected g
 
 @functools.cache
 def used_axes_algebra(spec: Spec):
-    """Warp functions ``(outer_of_used_rows, apply_on_used_axes)`` for vectors that are zero along the
-    unused axes (gradient weights, kernel gradients): ``outer_of_used_rows(a, b)`` = a ⊗ b multiplying
-    out only the used axes' rows, and ``apply_on_used_axes(M, a)`` = M a for an M that couples no
-    used axis to an unused one (a correction matrix's inverse), multiplying out only the used block.
-    The skipped products are exactly zero; a 2D pair loop's sums do a third less work."""
-    real, vec3, mat33 = spec.real, spec.vec3, spec.mat33
+    """Warp functions ``(outer_of_used_rows, apply_on_used_axes, used_block_of)`` for vectors that are
+    zero along the unused axes (gradient weights, kernel gradients): ``outer_of_used_rows(a, b)`` =
+    a ⊗ b multiplying out only the used axes' rows, ``used_block_of(M)`` the block of an M that couples
+    no used axis to an unused one (a correction matrix's inverse) as stored (``spec.used_block``), and
+    ``apply_on_used_axes(B, a)`` = M a from that block B. The skipped products are exactly zero; a 2D
+    pair loop's sums do a third less work."""
+    real, vec3, mat33, block = spec.real, spec.vec3, spec.mat33, spec.used_block
     zero = real(0.0)
+
+    if spec.dim == 3:
+
+        @wp.func
+        def used_block_of(M: mat33):
+            return M
+
+    else:
+
+        @wp.func
+        def used_block_of(M: mat33):
+            return block(M[0, 0], M[0, 1], M[1, 0], M[1, 1])
 
     @wp.func
     def outer_of_used_rows(a: vec3, b: vec3):
@@ -36,14 +49,14 @@ def used_axes_algebra(spec: Spec):
         return mat33(zero, zero, zero, a[1] * b[0], a[1] * b[1], a[1] * b[2], zero, zero, zero)
 
     @wp.func
-    def apply_on_used_axes(M: mat33, a: vec3):
+    def apply_on_used_axes(M: block, a: vec3):
         if wp.static(spec.dim == 3):
             return M * a
         if wp.static(spec.dim == 2):
             return vec3(M[0, 0] * a[0] + M[0, 1] * a[1], M[1, 0] * a[0] + M[1, 1] * a[1], zero)
         return vec3(zero, M[1, 1] * a[1], zero)
 
-    return outer_of_used_rows, apply_on_used_axes
+    return outer_of_used_rows, apply_on_used_axes, used_block_of
 
 
 @functools.cache
@@ -53,7 +66,7 @@ def fit_parts(spec: Spec):
     chosen subset of a neighbour list."""
     real, vec3, mat33 = spec.real, spec.vec3, spec.mat33
     value_and_gradient = kernel_pair(spec)
-    outer, _apply = used_axes_algebra(spec)
+    outer = used_axes_algebra(spec)[0]
     mask = spec.axis_mask
     unused = mat33(
         real(1.0 - mask[0]), real(0.0), real(0.0),
@@ -104,9 +117,9 @@ def fit_parts(spec: Spec):
 @functools.cache
 def operator_functions(spec: Spec):
     """Warp functions ``fit_operator``, ``fit_weights``, ``invert_correction``, ``smallest_eigenvalue``."""
-    real, vec3, mat33 = spec.real, spec.vec3, spec.mat33
+    real, vec3, mat33, block = spec.real, spec.vec3, spec.mat33, spec.used_block
     value_and_gradient = kernel_pair(spec)
-    _outer, apply_on_used_axes = used_axes_algebra(spec)
+    _outer, apply_on_used_axes, used_block_of = used_axes_algebra(spec)
     add_to_fit, finish_fit, invert_correction, unused = fit_parts(spec)
     zero = real(0.0)
     half = real(0.5)
@@ -121,7 +134,8 @@ def operator_functions(spec: Spec):
         vols: wp.array(dtype=real),
         h: real,
     ):
-        """The fit data at x from the sources ``xs`` of volumes ``vols`` [m^dim] listed in nbr[start:end]."""
+        """The fit data at x from the sources ``xs`` of volumes ``vols`` [m^dim] listed in nbr[start:end]:
+        c, 1/den, M⁻¹'s block on the used axes (as ``fit_weights`` takes it), e, M and whether corrected."""
         w0 = zero
         wr = vec3(zero, zero, zero)
         g0 = vec3(zero, zero, zero)
@@ -130,11 +144,12 @@ def operator_functions(spec: Spec):
             b = nbr[k]
             w0, wr, g0, M, w, g = add_to_fit(xs[b] - x, vols[b], h, w0, wr, g0, M)
         c, inv_den, Minv, e, corrected = finish_fit(w0, wr, g0, M)
-        return c, inv_den, Minv, e, M, corrected
+        return c, inv_den, used_block_of(Minv), e, M, corrected
 
     @wp.func
-    def fit_weights(r: vec3, h: real, c: vec3, inv_den: real, Minv: mat33):
-        """Value weight ψ and gradient weight φ of a source at offset r = x_b − x (times V_b)."""
+    def fit_weights(r: vec3, h: real, c: vec3, inv_den: real, Minv: block):
+        """Value weight ψ and gradient weight φ of a source at offset r = x_b − x (times V_b); ``Minv``
+        M⁻¹'s block on the used axes (``used_axes_algebra``)."""
         w, g = value_and_gradient(-r, h)
         psi = (w - wp.dot(c, g)) * inv_den
         return psi, apply_on_used_axes(Minv, g)

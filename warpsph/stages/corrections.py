@@ -21,14 +21,15 @@ from warpsph.sph.spec import Spec
 @functools.cache
 def fits_struct(spec: Spec):
     """The ``Fits`` @wp.struct of ``spec``'s precision: a point set's linear-fit data as the kernels take
-    it, (n,) each: c, 1/den, M⁻¹, e and the correction matrix's smallest eigenvalue (:class:`FitData`)."""
-    real, vec3, mat33 = spec.real, spec.vec3, spec.mat33
+    it, (n,) each: c, 1/den, M⁻¹ (its block on the used axes), e and the correction matrix's smallest
+    eigenvalue (:class:`FitData`)."""
+    real, vec3, block = spec.real, spec.vec3, spec.used_block
 
     @wp.struct
     class Fits:
         c: wp.array(dtype=vec3)
         inv_den: wp.array(dtype=real)
-        minv: wp.array(dtype=mat33)
+        minv: wp.array(dtype=block)
         e: wp.array(dtype=vec3)
         smallest_eigenvalue: wp.array(dtype=real)
 
@@ -40,6 +41,7 @@ def _kernels(spec: Spec):
     real, vec3 = spec.real, spec.vec3
     Fits = fits_struct(spec)
     fit_operator, _weights, _unused, smallest_eigenvalue = operator_functions(spec)
+    used = 3 if spec.dim == 3 else 2  # axes of the stored block
 
     @wp.kernel(enable_backward=False, module="unique")
     def compute_fits(
@@ -81,8 +83,8 @@ def _kernels(spec: Spec):
                 m = plane_axis[p]
                 c[m] = -c[m]
                 e[m] = -e[m]
-                for j in range(3):
-                    if j != m:
+                for j in range(wp.static(used)):
+                    if j != m and m < wp.static(used):
                         Minv[m, j] = -Minv[m, j]
                         Minv[j, m] = -Minv[j, m]
         fit.c[n_owned + g] = c
@@ -108,8 +110,8 @@ class FitData:
         """(n,) vec3 c = M⁻ᵀ Σ V W r [m]."""
         self.inv_den = wp.zeros(count, dtype=spec.real, device=device)
         """(n,) 1 / (Σ V W − c·Σ V ∇W) [-]."""
-        self.minv = wp.zeros(count, dtype=spec.mat33, device=device)
-        """(n,) mat33 inverse correction matrix [-]."""
+        self.minv = wp.zeros(count, dtype=spec.used_block, device=device)
+        """(n,) the inverse correction matrix's block on the used axes (``spec.used_block``) [-]."""
         self.e = wp.zeros(count, dtype=spec.vec3, device=device)
         """(n,) vec3 e = M⁻¹ Σ V ∇W [1/m]; −e points out of a free surface."""
         self.smallest_eigenvalue = wp.zeros(count, dtype=spec.real, device=device)

@@ -36,7 +36,8 @@ Measured on the free plate (docs/method.md): one step's spectral radius 1.000059
 @functools.cache
 def taylor_kernels(spec: Spec):
     """``(half_step, full_step, virtual_continuity, motion_over_step)`` kernels for ``spec``."""
-    real, vec3, mat33 = spec.real, spec.vec3, spec.mat33
+    real, vec3, mat33, block = spec.real, spec.vec3, spec.mat33, spec.used_block
+    used = 3 if spec.dim == 3 else 2  # axes of a stored M⁻¹ block
     _fit, fit_weights, _unused, _eig = operator_functions(spec)
     _W, grad_W = smoothing_functions(spec)
     outer = used_axes_algebra(spec)[0]
@@ -59,15 +60,15 @@ def taylor_kernels(spec: Spec):
     variant = f"_plastic_{spec.yield_function}" if plasticity else ""
 
     @wp.func
-    def uncorrected(c: vec3, Minv: mat33):
+    def uncorrected(c: vec3, Minv: block):
         """Whether a point's fit fell back to Shepard + the uncorrected gradient (its neighbours
         cannot fit a linear field): the fallback stores exactly c = 0 and M⁻¹ = I."""
-        return c == vec3(zero, zero, zero) and Minv == wp.identity(3, dtype=real)
+        return c == vec3(zero, zero, zero) and Minv == wp.identity(wp.static(used), dtype=real)
 
     @wp.func
     def fit_value(
         x: vec3, start: int, end: int, nbr: wp.array(dtype=wp.int32), xs: wp.array(dtype=vec3),
-        vols: wp.array(dtype=real), values: wp.array(dtype=real), h: real, c: vec3, inv_den: real, Minv: mat33,
+        vols: wp.array(dtype=real), values: wp.array(dtype=real), h: real, c: vec3, inv_den: real, Minv: block,
     ):  # fmt: skip
         """A scalar field fitted at x from the sources of volumes ``vols`` (the value part of the linear fit)."""
         value = zero
@@ -132,7 +133,7 @@ def taylor_kernels(spec: Spec):
     def fit_fields(
         x: vec3, start: int, end: int, nbr: wp.array(dtype=wp.int32), xs: wp.array(dtype=vec3),
         vols: wp.array(dtype=real), vs: wp.array(dtype=vec3),
-        sigmas: wp.array(dtype=mat33), h: real, c: vec3, inv_den: real, Minv: mat33, e: vec3,
+        sigmas: wp.array(dtype=mat33), h: real, c: vec3, inv_den: real, Minv: block, e: vec3,
         src: Fits, in_surface_band: bool, ps: wp.array(dtype=wp.float64), mid: real,
         water_on_surface: real, per_share: bool, beyond_sources: real, unit_weight: vec3,
         surface_water: SurfaceWater, rho_w: real,
