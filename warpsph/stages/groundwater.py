@@ -12,7 +12,7 @@ from warpsph.model import Model, State
 from warpsph.pore_water import PlaneDrainage
 from warpsph.scene import STANDARD_GRAVITY
 from warpsph.stages.groundwater_kernels import WaterContent, groundwater_kernels
-from warpsph.stages.linear_solve import LinearSolver
+from warpsph.stages.linear_solve import LinearSolver, sparse_rows
 from warpsph.stages.surface_water import wetted_regions
 
 MAX_ITERATIONS = 40
@@ -75,7 +75,7 @@ class GroundwaterFlow:
             setattr(self.content, name, getattr(self, name))
         self.discharge_rows = zeros(n * self.n_tags)
         size = max(1, self.lists.indices.shape[0])
-        self.weight, self.column = zeros(size), zeros(size, wp.int32)
+        self.weight = zeros(size)
         self.drainage = PlaneDrainage(model)
         self.drained = solver.boundaries.with_drainage(self.drainage)
         """The planes with the flow's own prescribed values, as the kernels take them."""
@@ -141,7 +141,6 @@ class GroundwaterFlow:
         wp.copy(self.p_start, p if start is None else start, count=n)
         if self.lists.indices.shape[0] > self.weight.shape[0]:  # the skeleton moved: its lists grew
             self.weight = wp.zeros(self.lists.indices.shape[0], dtype=wp.float64, device=dev)
-            self.column = wp.zeros(self.lists.indices.shape[0], dtype=wp.int32, device=dev)
         self._seeping_start = self.seeping.copy()
         base, value, tag, candidates = self._conditions(t)
         self.tag.assign(tag)
@@ -158,10 +157,11 @@ class GroundwaterFlow:
             self._retention(self.p_iter)
             args = self._args(inv_dt, self.p_iter)
             launch_rows(self.k["assemble_flow"], n,
-                        [*args, self.value, self.projection.face_factor, self.weight, self.column, self.diag,
+                        [*args, self.value, self.projection.face_factor, self.weight, self.diag,
                          self.rhs], dev)  # fmt: skip
-            matrix = [self.lists.offsets, self.weight, self.column, self.diag]
-            launch_rows(self.k["residual"], n, [*matrix, self.p_iter, self.rhs, self.increment_rhs, self.increment],
+            matrix = sparse_rows(self.lists.offsets, self.weight, self.lists.indices, m.particle_ghost_source,
+                                 self.diag, n)  # fmt: skip
+            launch_rows(self.k["residual"], n, [matrix, self.p_iter, self.rhs, self.increment_rhs, self.increment],
                         dev)  # fmt: skip
             self.linear.solve(matrix, self.increment_rhs, self.increment)
             launch_rows(self.k["add_increment"], n, [self.p_iter, self.increment, p], dev)

@@ -11,7 +11,7 @@ from warpsph.pore_water import water_struct
 from warpsph.sph.kernels import smoothing_functions
 from warpsph.sph.spec import Spec
 from warpsph.stages.boundaries import plane_functions, planes_struct
-from warpsph.stages.linear_solve import apply_row
+from warpsph.stages.linear_solve import SparseRows, apply_row
 from warpsph.stages.pressure_kernels import ETA, fold_conditions, held_row, pressure_kernels
 
 
@@ -130,8 +130,7 @@ def groundwater_kernels(spec: Spec):
         water: Water, content: WaterContent, p_iter: wp.array(dtype=f64),
         ghost_source: wp.array(dtype=wp.int32), ghost_chain: wp.array(dtype=wp.vec3i), planes: Planes,
         dirichlet: wp.array(dtype=wp.int32), value: wp.array(dtype=f64), face_factor: wp.array(dtype=f64),
-        weight: wp.array(dtype=f64), column: wp.array(dtype=wp.int32), diag: wp.array(dtype=f64),
-        rhs: wp.array(dtype=f64),
+        weight: wp.array(dtype=f64), diag: wp.array(dtype=f64), rhs: wp.array(dtype=f64),
     ):  # fmt: skip
         """Row a of  V_a [(θ(pᵐ) − θⁿ) + C(pᵐ)(pᵐ⁺¹ − pᵐ) + (S/Q)(pᵐ⁺¹ − pⁿ)]/Δt + Σ_b w_ab (p_a − p_b)ᵐ⁺¹ = 0
         (θ = n S, C = n dS/dp; ``inv_dt`` = 0: the steady state); Dirichlet rows as in the projection."""
@@ -145,7 +144,6 @@ def groundwater_kernels(spec: Spec):
             b += w * c
             coefficient, b = fold_conditions(w * s, b, dirichlet[col], value[col], dirichlet[a])
             weight[k] = coefficient
-            column[k] = col
         if dirichlet[a] == 1:
             d, b = held_row(d, value[a])
         diag[a] = d
@@ -209,15 +207,14 @@ def groundwater_kernels(spec: Spec):
 
     @wp.kernel(enable_backward=False, module="unique")
     def residual(
-        first: int, offsets: wp.array(dtype=wp.int32), weight: wp.array(dtype=f64), column: wp.array(dtype=wp.int32),
-        diag: wp.array(dtype=f64), x: wp.array(dtype=f64), rhs: wp.array(dtype=f64), out: wp.array(dtype=f64),
+        first: int, A: SparseRows, x: wp.array(dtype=f64), rhs: wp.array(dtype=f64), out: wp.array(dtype=f64),
         increment: wp.array(dtype=f64),
     ):  # fmt: skip
         """out = b − A x and a zero increment: the iteration solves A δ = b − A pᵐ, so that the solve's
         relative tolerance applies to the change (with the storage term of a short step, pᵐ alone
         already met it)."""
         a = first + wp.tid()
-        out[a] = rhs[a] - apply_row(a, offsets, weight, column, diag, x)
+        out[a] = rhs[a] - apply_row(a, A, x)
         increment[a] = zero
 
     @wp.kernel(enable_backward=False, module="unique")

@@ -3,8 +3,6 @@ the CPU, bit-identical for any thread count, and device-resident ones on a GPU (
 *Pressure solve on CPU threads*).
 """
 
-from __future__ import annotations
-
 import math
 
 import warp as wp
@@ -31,13 +29,37 @@ COLUMNS = wp.constant(4)
 RZ, RR, BB, DAD = (wp.constant(k) for k in range(4))
 
 
+@wp.struct
+class SparseRows:
+    """A x = diag x − Σ_k weight[k] x[col(k)] over row a's entries offsets[a] … offsets[a+1], where
+    col(k) = column[k] below ``n`` and ghost_source[column[k] − n] above it: the columns are a
+    neighbour list's own indices, whose ghosts stand for their sources (:func:`sparse_rows`)."""
+
+    offsets: wp.array(dtype=wp.int32)
+    weight: wp.array(dtype=f64)
+    column: wp.array(dtype=wp.int32)
+    ghost_source: wp.array(dtype=wp.int32)
+    diag: wp.array(dtype=f64)
+    n: int
+
+
+def sparse_rows(offsets, weight, column, ghost_source, diag, n: int) -> SparseRows:
+    """The :class:`SparseRows` of these arrays; ``n`` the owned points (the rows)."""
+    rows = SparseRows()
+    rows.offsets, rows.weight, rows.column, rows.ghost_source, rows.diag, rows.n = (offsets, weight, column,
+                                                                                  ghost_source, diag, n)  # fmt: skip
+    return rows
+
+
 @wp.func
-def apply_row(a: int, offsets: wp.array(dtype=wp.int32), weight: wp.array(dtype=f64),
-              column: wp.array(dtype=wp.int32), diag: wp.array(dtype=f64), x: wp.array(dtype=f64)):  # fmt: skip
+def apply_row(a: int, A: SparseRows, x: wp.array(dtype=f64)):
     """(A x)_a."""
-    y = diag[a] * x[a]
-    for k in range(offsets[a], offsets[a + 1]):
-        y -= weight[k] * x[column[k]]
+    y = A.diag[a] * x[a]
+    for k in range(A.offsets[a], A.offsets[a + 1]):
+        col = A.column[k]
+        if col >= A.n:
+            col = A.ghost_source[col - A.n]
+        y -= A.weight[k] * x[col]
     return y
 
 
@@ -60,8 +82,7 @@ def add_block_sum(table: wp.array(dtype=f64), row: int, col: int, value: f64):
 
 @wp.kernel(enable_backward=False)
 def residual_blocks(
-    first: int, block: int, n: int, offsets: wp.array(dtype=wp.int32), weight: wp.array(dtype=f64),
-    column: wp.array(dtype=wp.int32), diag: wp.array(dtype=f64),
+    first: int, block: int, n: int, A: SparseRows,
     x: wp.array(dtype=f64), rhs: wp.array(dtype=f64), r: wp.array(dtype=f64), z: wp.array(dtype=f64),
     partial: wp.array(dtype=f64),
 ):  # fmt: skip
@@ -71,8 +92,8 @@ def residual_blocks(
     rr = f64(0.0)
     bb = f64(0.0)
     for a in range(i * block, wp.min(n, (i + 1) * block)):
-        ra = rhs[a] - apply_row(a, offsets, weight, column, diag, x)
-        za = ra / diag[a]
+        ra = rhs[a] - apply_row(a, A, x)
+        za = ra / A.diag[a]
         r[a] = ra
         z[a] = za
         rz += ra * za
@@ -92,15 +113,14 @@ def direction_rows(first: int, beta: f64, z: wp.array(dtype=f64), d: wp.array(dt
 
 @wp.kernel(enable_backward=False)
 def matvec_blocks(
-    first: int, block: int, n: int, offsets: wp.array(dtype=wp.int32), weight: wp.array(dtype=f64),
-    column: wp.array(dtype=wp.int32), diag: wp.array(dtype=f64),
+    first: int, block: int, n: int, A: SparseRows,
     d: wp.array(dtype=f64), Ad: wp.array(dtype=f64), partial: wp.array(dtype=f64),
 ):  # fmt: skip
     """Ad = A d; partial[0] = d·Ad of the block."""
     i = first + wp.tid()
     dad = f64(0.0)
     for a in range(i * block, wp.min(n, (i + 1) * block)):
-        y = apply_row(a, offsets, weight, column, diag, d)
+        y = apply_row(a, A, d)
         Ad[a] = y
         dad += d[a] * y
     partial[3 * i] = dad
@@ -130,8 +150,7 @@ def update_blocks(
 
 @wp.kernel(enable_backward=False)
 def jacobi_blocks(
-    first: int, block: int, n: int, omega: f64, offsets: wp.array(dtype=wp.int32), weight: wp.array(dtype=f64),
-    column: wp.array(dtype=wp.int32), diag: wp.array(dtype=f64),
+    first: int, block: int, n: int, omega: f64, A: SparseRows,
     x: wp.array(dtype=f64), rhs: wp.array(dtype=f64), x_new: wp.array(dtype=f64), partial: wp.array(dtype=f64),
 ):  # fmt: skip
     """x_new = x + ω (b − A x)/diag; partial = (r·r, b·b) of x in the block."""
@@ -139,8 +158,8 @@ def jacobi_blocks(
     rr = f64(0.0)
     bb = f64(0.0)
     for a in range(i * block, wp.min(n, (i + 1) * block)):
-        ra = rhs[a] - apply_row(a, offsets, weight, column, diag, x)
-        x_new[a] = x[a] + omega * ra / diag[a]
+        ra = rhs[a] - apply_row(a, A, x)
+        x_new[a] = x[a] + omega * ra / A.diag[a]
         rr += ra * ra
         bb += rhs[a] * rhs[a]
     partial[3 * i] = rr
@@ -152,8 +171,7 @@ def jacobi_blocks(
 
 @wp.kernel(enable_backward=False)
 def residual_rows(
-    n: int, offsets: wp.array(dtype=wp.int32), weight: wp.array(dtype=f64), column: wp.array(dtype=wp.int32),
-    diag: wp.array(dtype=f64), x: wp.array(dtype=f64), rhs: wp.array(dtype=f64), r: wp.array(dtype=f64),
+    n: int, A: SparseRows, x: wp.array(dtype=f64), rhs: wp.array(dtype=f64), r: wp.array(dtype=f64),
     z: wp.array(dtype=f64), d: wp.array(dtype=f64), table: wp.array(dtype=f64),
 ):  # fmt: skip
     """r = b − A x, z = d = r/diag; table[0] += (r·z, r·r, b·b)."""
@@ -163,8 +181,8 @@ def residual_rows(
     ba = f64(0.0)
     if a < n:
         ba = rhs[a]
-        ra = ba - apply_row(a, offsets, weight, column, diag, x)
-        za = ra / diag[a]
+        ra = ba - apply_row(a, A, x)
+        za = ra / A.diag[a]
         r[a] = ra
         z[a] = za
         d[a] = za
@@ -175,14 +193,13 @@ def residual_rows(
 
 @wp.kernel(enable_backward=False)
 def matvec_rows(
-    n: int, it: int, offsets: wp.array(dtype=wp.int32), weight: wp.array(dtype=f64), column: wp.array(dtype=wp.int32),
-    diag: wp.array(dtype=f64), d: wp.array(dtype=f64), Ad: wp.array(dtype=f64), table: wp.array(dtype=f64),
+    n: int, it: int, A: SparseRows, d: wp.array(dtype=f64), Ad: wp.array(dtype=f64), table: wp.array(dtype=f64),
 ):  # fmt: skip
     """Ad = A d; table[it, DAD] += d·Ad."""
     a = wp.tid()
     dad = f64(0.0)
     if a < n:
-        y = apply_row(a, offsets, weight, column, diag, d)
+        y = apply_row(a, A, d)
         Ad[a] = y
         dad = d[a] * y
     add_block_sum(table, it, DAD, dad)
@@ -220,8 +237,7 @@ def direction_from_table(it: int, z: wp.array(dtype=f64), d: wp.array(dtype=f64)
 
 @wp.kernel(enable_backward=False)
 def jacobi_rows(
-    n: int, it: int, omega: f64, offsets: wp.array(dtype=wp.int32), weight: wp.array(dtype=f64),
-    column: wp.array(dtype=wp.int32), diag: wp.array(dtype=f64), x: wp.array(dtype=f64), rhs: wp.array(dtype=f64),
+    n: int, it: int, omega: f64, A: SparseRows, x: wp.array(dtype=f64), rhs: wp.array(dtype=f64),
     x_new: wp.array(dtype=f64), table: wp.array(dtype=f64),
 ):  # fmt: skip
     """x_new = x + ω (b − A x)/diag; table[it] += (r·r, b·b) of x."""
@@ -230,8 +246,8 @@ def jacobi_rows(
     ba = f64(0.0)
     if a < n:
         ba = rhs[a]
-        ra = ba - apply_row(a, offsets, weight, column, diag, x)
-        x_new[a] = x[a] + omega * ra / diag[a]
+        ra = ba - apply_row(a, A, x)
+        x_new[a] = x[a] + omega * ra / A.diag[a]
     add_block_sum(table, it, RR, ra * ra)
     add_block_sum(table, it, BB, ba * ba)
 
@@ -253,8 +269,8 @@ class LinearSolver:
         self.check_every = 1 if wp.get_device(device).is_cpu else CHECK_EVERY
         self.last_iterations = 0
 
-    def solve(self, matrix: list, rhs, x) -> tuple[int, float]:
-        """Solve ``matrix`` = [offsets, weight, column, diag] x = ``rhs`` from the start ``x`` (in
+    def solve(self, matrix: SparseRows, rhs, x) -> tuple[int, float]:
+        """Solve ``matrix`` (a :class:`SparseRows`) x = ``rhs`` from the start ``x`` (in
         place); return (iterations, relative residual ‖b − A x‖/‖b‖ of the last one checked)."""
         cg = self.settings.solver == "cg"
         if self.blocked:
@@ -283,7 +299,7 @@ class LinearSolver:
     def _cg_blocked(self, matrix, rhs, x):
         r, z, d, Ad = self.work
         s = self.settings
-        self._blocks(residual_blocks, [*matrix, x, rhs, r, z, self.partial])
+        self._blocks(residual_blocks, [matrix, x, rhs, r, z, self.partial])
         rz, rr, bb = self._sum(0), self._sum(1), self._sum(2)
         target = s.tolerance**2 * max(bb, 1e-300)
         if rr <= target:
@@ -292,11 +308,11 @@ class LinearSolver:
         beta = 0.0
         for it in range(1, s.max_iterations + 1):
             launch(direction_rows, self.n, [0, f64(beta), z, d], self.device)
-            self._blocks(matvec_blocks, [*matrix, d, Ad, self.partial])
+            self._blocks(matvec_blocks, [matrix, d, Ad, self.partial])
             dAd = self._sum(0)
             if dAd <= 0.0:
                 break
-            self._blocks(update_blocks, [f64(rz / dAd), d, Ad, matrix[3], x, r, z, self.partial], threaded=False)
+            self._blocks(update_blocks, [f64(rz / dAd), d, Ad, matrix.diag, x, r, z, self.partial], threaded=False)
             rz_new, rr = self._sum(0), self._sum(1)
             if rr <= target:
                 return it, math.sqrt(rr / max(bb, 1e-300))
@@ -308,7 +324,7 @@ class LinearSolver:
         current, nxt = x, self.work[0]
         rel = math.inf
         for it in range(s.max_iterations + 1):
-            self._blocks(jacobi_blocks, [f64(s.jacobi_weight), *matrix, current, rhs, nxt, self.partial])
+            self._blocks(jacobi_blocks, [f64(s.jacobi_weight), matrix, current, rhs, nxt, self.partial])
             rel = math.sqrt(self._sum(0) / max(self._sum(1), 1e-300))
             if rel <= s.tolerance:
                 break  # ``current`` met the tolerance
@@ -338,7 +354,7 @@ class LinearSolver:
         r, z, d, Ad = self.work
         s, n, table = self.settings, self.n, self.table
         table.zero_()
-        self._rows(residual_rows, [n, *matrix, x, rhs, r, z, d, table])
+        self._rows(residual_rows, [n, matrix, x, rhs, r, z, d, table])
         _, rr, bb = (float(v) for v in self._rows_read(0, 1)[0, :3])
         target = s.tolerance**2 * max(bb, 1e-300)
         if rr <= target:
@@ -347,8 +363,8 @@ class LinearSolver:
         for it in range(1, s.max_iterations + 1):
             if it > 1:
                 launch(direction_from_table, n, [it - 1, z, d, table], self.device)
-            self._rows(matvec_rows, [n, it, *matrix, d, Ad, table])
-            self._rows(update_rows, [n, it, d, Ad, matrix[3], x, r, z, table])
+            self._rows(matvec_rows, [n, it, matrix, d, Ad, table])
+            self._rows(update_rows, [n, it, d, Ad, matrix.diag, x, r, z, table])
             if self._due(it):
                 rows = self._rows_read(checked + 1, it + 1)  # one host read for the iterations since the last
                 checked = it
@@ -365,7 +381,7 @@ class LinearSolver:
         rel = math.inf
         table.zero_()
         for it in range(s.max_iterations + 1):
-            self._rows(jacobi_rows, [n, it, f64(s.jacobi_weight), *matrix, current, rhs, nxt, table])
+            self._rows(jacobi_rows, [n, it, f64(s.jacobi_weight), matrix, current, rhs, nxt, table])
             if it == 0 or self._due(it):
                 rr, bb = (float(v) for v in self._rows_read(it, it + 1)[0, RR : BB + 1])
                 rel = math.sqrt(rr / max(bb, 1e-300))

@@ -11,7 +11,7 @@ from warpsph.errors import SimulationError
 from warpsph.launching import launch, launch_rows
 from warpsph.model import PLANE_TRACTION, Model
 from warpsph.pore_water import PlaneDrainage
-from warpsph.stages.linear_solve import LinearSolver
+from warpsph.stages.linear_solve import LinearSolver, sparse_rows
 from warpsph.stages.pressure_kernels import (
     DRAINED_SURFACE_EIGENVALUE,
     LOW_PERMEABILITY_WEIGHT,
@@ -78,7 +78,7 @@ class PressureProjection:
         self.roughness = wp.zeros(n, dtype=f64, device=dev)
         self.near_surface = wp.zeros(n, dtype=wp.int32, device=dev)
         self.linear = LinearSolver(n, dev, settings)
-        self.weight = self.column = None
+        self.weight = None
         on = self.drainage.on
         self.on_drained = wp.array(on, dtype=wp.int32, device=dev)
         self.face_factor = wp.array(self._face_factor(), dtype=f64, device=dev)
@@ -189,7 +189,6 @@ class PressureProjection:
         if self.weight is None or self.weight.shape[0] < nl.indices.shape[0]:
             size = nl.indices.shape[0]
             self.weight = wp.zeros(size, dtype=wp.float64, device=dev)
-            self.column = wp.zeros(size, dtype=wp.int32, device=dev)
         wp.copy(self.p_old, si.particle_pore_pressure)
         # the solve's unknown: a copy of pⁿ (owned part), drained rows at their values
         x = so.particle_pore_pressure
@@ -223,7 +222,7 @@ class PressureProjection:
                 self.face_factor, self.momentum_image, rf.smallest_eigenvalue,
                 real(self.exterior_threshold), wp.float64(self.lattice_sum), self.roughness, self.near_surface,
                 wp.float64(self.settings.stabilisation), wp.float64(self.settings.interior_stabilisation),
-                self.weight, self.column, self.diag, self.rhs], dev)  # fmt: skip
+                self.weight, self.diag, self.rhs], dev)  # fmt: skip
         iterations, rel = self.linear.solve(self._matrix(), self.rhs, x)
         self.iterations.append(iterations)
         self.residuals.append(rel)
@@ -319,4 +318,6 @@ class PressureProjection:
         return w.numpy()
 
     def _matrix(self):
-        return [self.solver.real_to_real.offsets, self.weight, self.column, self.diag]
+        """The assembled system on the real-real list, whose ghost neighbours stand for their sources."""
+        m, nl = self.model, self.solver.real_to_real
+        return sparse_rows(nl.offsets, self.weight, nl.indices, m.particle_ghost_source, self.diag, m.particle_count)

@@ -440,8 +440,7 @@ def pressure_kernels(spec: Spec):
         face_factor: wp.array(dtype=f64), momentum_image: wp.array(dtype=f64), eigenvalue: wp.array(dtype=real),
         exterior_threshold: real, lattice_sum: f64, rough: wp.array(dtype=f64), near_surface: wp.array(dtype=wp.int32),
         stabilisation: f64, interior_stabilisation: f64,
-        weight: wp.array(dtype=f64), column: wp.array(dtype=wp.int32), diag: wp.array(dtype=f64),
-        rhs: wp.array(dtype=f64),
+        weight: wp.array(dtype=f64), diag: wp.array(dtype=f64), rhs: wp.array(dtype=f64),
     ):  # fmt: skip
         a = first + wp.tid()
         x = q[a]
@@ -497,10 +496,10 @@ def pressure_kernels(spec: Spec):
                     draining = k_pair / (dt_rho_a + f64(dt) / f64(density[j]))  # k ρ/Δt
                     theta = wp.max(faded_by_draining(base, draining), interior_stabilisation)
                 b -= theta * w_dt * (rough[a] - rough[col])
-            coefficient = w_k * s + w_dt * s_dt  # the ghost's parities folded in: A x = diag x − Σ weight x[column]
+            # the ghost's parities folded in (SparseRows: A x = diag x − Σ weight x[col])
+            coefficient = w_k * s + w_dt * s_dt
             coefficient, b = fold_conditions(coefficient, b, dirichlet[col], value[col], dirichlet[a])
             weight[k] = coefficient
-            column[k] = col
         if eigenvalue[a] < exterior_threshold and lattice_sum > present:
             # impermeable free surface: the Δt/ρ part gains the pairs missing outside, with a zero
             # increment there, as the predictor's surface term takes the pressure outside as zero
