@@ -20,6 +20,7 @@ from warpsph.errors import SimulationError
 from warpsph.launching import launch_rows
 from warpsph.model import Model, State
 from warpsph.sph.neighbours import NeighbourList, NeighbourScratch
+from warpsph.sph.packed_stress import packed_stress_type
 from warpsph.stages.boundaries import Boundaries
 from warpsph.stages.collocated import RungeKuttaStep
 from warpsph.stages.corrections import FitData, compute_fit_data, compute_volumes
@@ -183,7 +184,8 @@ class Solver:
     def _init_two_set(self) -> None:
         m, s, dev = self.model, self.model.spec, self.model.device
         self.virtual_v = wp.zeros(m.virtual_capacity, dtype=s.vec3, device=dev)
-        self.virtual_stress = wp.zeros(m.virtual_capacity, dtype=s.mat33, device=dev)
+        self.virtual_stress = wp.zeros(m.virtual_capacity, dtype=packed_stress_type(s), device=dev)
+        """The virtual points' half-step stress, by its independent entries (:mod:`warpsph.sph.packed_stress`)."""
         self.real_volume = wp.zeros(m.particle_capacity, dtype=s.real, device=dev)
         """V = m/ρ [m^dim] of the real particles and their ghosts at tⁿ, the pair loops' weights."""
         self.virtual_volume = wp.zeros(m.virtual_capacity, dtype=s.real, device=dev)

@@ -11,6 +11,7 @@ import warp as wp
 from warpsph.launching import launch
 from warpsph.model import PLANE_FIXED, PLANE_SLIP, PLANE_TRACTION, PLANE_VELOCITY, Model
 from warpsph.physics.elastic import elastic_struct, strain_energy_function
+from warpsph.sph.packed_stress import as_stored, as_tensor
 from warpsph.sph.spec import Spec
 from warpsph.stages.energy import BOUNDARIES
 
@@ -95,8 +96,11 @@ def gravity_struct(spec: Spec):
 
 
 @functools.cache
-def _kernels(spec: Spec):
+def _kernels(spec: Spec, stress_type=None):
+    """The planes' kernels; ``update_ghosts`` for stresses stored as ``stress_type`` (default mat33; the
+    virtual points' scratch is :mod:`warpsph.sph.packed_stress`'s)."""
     real, vec3, mat33 = spec.real, spec.vec3, spec.mat33
+    stress_type = stress_type or mat33
     two = real(2.0)
     pore_water = spec.effects.pore_water
     traction_here, drainage_here = plane_functions(spec)
@@ -124,14 +128,14 @@ def _kernels(spec: Spec):
         origin: wp.array(dtype=vec3),
         q: wp.array(dtype=vec3),
         v: wp.array(dtype=vec3),
-        stress: wp.array(dtype=mat33),
+        stress: wp.array(dtype=stress_type),
         density: wp.array(dtype=real),
     ):
         g = wp.tid()
         src = source[g]
         x = q[src]
         u = v[src]
-        s = stress[src]
+        s = as_tensor(stress[src])
         weight = density[src]  # the stress gradient at a wall balances (ρ − ρ_w) b
         if wp.static(pore_water):
             weight = weight - real(gravity.water_density[material[src]])
@@ -174,7 +178,7 @@ def _kernels(spec: Spec):
                         s[m, m] = s[m, m] + two * p_face
         q[n_owned + g] = x
         v[n_owned + g] = u
-        stress[n_owned + g] = s
+        stress[n_owned + g] = as_stored(s, stress[src])
         density[n_owned + g] = density[src]
 
     @wp.kernel(enable_backward=False, module="unique")
@@ -352,7 +356,7 @@ class Boundaries:
     def update_virtual_ghosts(self, q, v, stress, density, pore=None) -> None:
         """Ghost entries of the virtual set from their sources (``pore``: their excess pore pressure)."""
         m = self.model
-        update_ghosts, *_ = _kernels(m.spec)
+        update_ghosts, *_ = _kernels(m.spec, stress.dtype)
         launch(update_ghosts, m.virtual_ghost_count,
                [m.virtual_count, m.virtual_ghost_source, m.virtual_ghost_planes, self.planes,
                 *self._water_args(m.virtual_material, pore), m.virtual_origin, q, v, stress,

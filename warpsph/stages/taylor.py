@@ -11,6 +11,7 @@ step's energy (docs/method.md, *One step*, *Operators*, *Energy balance*).
 """
 
 import functools
+from typing import Any
 
 import warp as wp
 
@@ -19,6 +20,7 @@ from warpsph.physics.elastic import elastic_functions, elastic_struct, strain_en
 from warpsph.physics.plasticity import material_struct, plastic_functions
 from warpsph.sph.kernels import smoothing_functions
 from warpsph.sph.operators import operator_functions, used_axes_algebra
+from warpsph.sph.packed_stress import as_stored, as_tensor, packed_stress_type
 from warpsph.sph.spec import Spec
 from warpsph.stages.corrections import fits_struct
 from warpsph.stages.energy import BOUNDARIES, GRAVITY, PLASTIC, PORE_WATER, STABILISATION, VISCOUS
@@ -38,6 +40,8 @@ def taylor_kernels(spec: Spec):
     """``(half_step, full_step, virtual_continuity, motion_over_step)`` kernels for ``spec``."""
     real, vec3, mat33, block = spec.real, spec.vec3, spec.mat33, spec.used_block
     used = 3 if spec.dim == 3 else 2  # axes of a stored M⁻¹ block
+    stored_stress = packed_stress_type(spec)  # the virtual points' half-step stress
+    stored_zero = stored_stress()
     _fit, fit_weights, _unused, _eig = operator_functions(spec)
     _W, grad_W = smoothing_functions(spec)
     outer = used_axes_algebra(spec)[0]
@@ -133,7 +137,7 @@ def taylor_kernels(spec: Spec):
     def fit_fields(
         x: vec3, start: int, end: int, nbr: wp.array(dtype=wp.int32), xs: wp.array(dtype=vec3),
         vols: wp.array(dtype=real), vs: wp.array(dtype=vec3),
-        sigmas: wp.array(dtype=mat33), h: real, c: vec3, inv_den: real, Minv: block, e: vec3,
+        sigmas: wp.array(dtype=Any), h: real, c: vec3, inv_den: real, Minv: block, e: vec3,
         src: Fits, in_surface_band: bool, ps: wp.array(dtype=wp.float64), mid: real,
         water_on_surface: real, per_share: bool, beyond_sources: real, unit_weight: vec3,
         surface_water: SurfaceWater, rho_w: real,
@@ -168,15 +172,16 @@ def taylor_kernels(spec: Spec):
             b = nbr[k]
             vol = vols[b]
             psi, phi = fit_weights(xs[b] - x, h, c, inv_den, Minv)
+            sigma = as_tensor(sigmas[b])
             v += (vol * psi) * vs[b]
-            s += (vol * psi) * sigmas[b]
+            s += (vol * psi) * sigma
             G += outer(vol * phi, vs[b])
             # φ's component along an unused axis is exactly zero, so is that axis's gradient
             if wp.static(used_x):
-                ds0 += (vol * phi[0]) * sigmas[b]
-            ds1 += (vol * phi[1]) * sigmas[b]
+                ds0 += (vol * phi[0]) * sigma
+            ds1 += (vol * phi[1]) * sigma
             if wp.static(used_z):
-                ds2 += (vol * phi[2]) * sigmas[b]
+                ds2 += (vol * phi[2]) * sigma
             if wp.static(pore_water):
                 p += wp.float64(vol * psi) * ps[b]
                 grad_p += (vol * real(ps[b])) * phi
@@ -249,7 +254,7 @@ def taylor_kernels(spec: Spec):
         virt_fit: Fits,
         elastic: ElasticMaterials,
         virt_v_half: wp.array(dtype=vec3),
-        virt_stress_half: wp.array(dtype=mat33),
+        virt_stress_half: wp.array(dtype=stored_stress),
         virt_q_out: wp.array(dtype=vec3),
         virt_density_out: wp.array(dtype=real),
         real_p: wp.array(dtype=wp.float64),
@@ -295,7 +300,7 @@ def taylor_kernels(spec: Spec):
         else:
             s_half = s + hdt * hooke_rate(d, lam, shear) + source_increment(s, spin, hdt)
         virt_v_half[i] = v_half
-        virt_stress_half[i] = s_half
+        virt_stress_half[i] = as_stored(s_half, stored_zero)
         virt_rate[i] = wp.sqrt(wp.ddot(d, d))  # ‖d‖ [1/s], the rate particle shifting follows
         virt_q_out[i] = x + dt * wp.cw_mul(v_half, moves)
         virt_density_out[i] = rho * wp.exp(opening - continuity * dt * wp.trace(d))
@@ -316,7 +321,7 @@ def taylor_kernels(spec: Spec):
         virt_density: wp.array(dtype=real),
         virt_volume: wp.array(dtype=real),
         virt_v_half: wp.array(dtype=vec3),
-        virt_stress_half: wp.array(dtype=mat33),
+        virt_stress_half: wp.array(dtype=stored_stress),
         virt_fit: Fits,
         real_fit: Fits,
         q: wp.array(dtype=vec3),
@@ -427,7 +432,7 @@ def taylor_kernels(spec: Spec):
             for k in range(offsets[a], offsets[a + 1]):
                 i = nbr[k]
                 psi_i, phi_i = fit_weights(virt_q[i] - x, h, real_fit.c[a], real_fit.inv_den[a], real_fit.minv[a])
-                d_s += (virt_mass[i] / virt_density[i] * wp.dot(phi_i, dx)) * virt_stress_half[i]
+                d_s += (virt_mass[i] / virt_density[i] * wp.dot(phi_i, dx)) * as_tensor(virt_stress_half[i])
             d_s -= wp.dot(real_fit.e[a], dx) * s_half
         v_force = v[a] + dt * (div / rho + body_force + visc)
         v_mean = half * (v[a] + v_force)
