@@ -60,6 +60,36 @@ def used_axes_algebra(spec: Spec):
 
 
 @functools.cache
+def used_vectors(spec: Spec):
+    """Warp functions ``(used_vector_of, full_vector)``: a vec3 zero along the unused axes (a fit's c and
+    e) as stored (``spec.used_vector``), and back."""
+    vec3, used = spec.vec3, spec.used_vector
+    zero = spec.real(0.0)
+
+    if spec.dim == 3:
+
+        @wp.func
+        def used_vector_of(a: vec3):
+            return a
+
+        @wp.func
+        def full_vector(a: vec3):
+            return a
+
+    else:
+
+        @wp.func
+        def used_vector_of(a: vec3):
+            return used(a[0], a[1])
+
+        @wp.func
+        def full_vector(a: used):
+            return vec3(a[0], a[1], zero)
+
+    return used_vector_of, full_vector
+
+
+@functools.cache
 def fit_parts(spec: Spec):
     """Warp functions ``add_to_fit`` (one source's share of w0, wr, g0, M) and ``finish_fit`` (those
     sums → (c, inv_den, Minv, e, corrected)): the two halves of ``fit_operator``, for fits over a
@@ -117,9 +147,10 @@ def fit_parts(spec: Spec):
 @functools.cache
 def operator_functions(spec: Spec):
     """Warp functions ``fit_operator``, ``fit_weights``, ``invert_correction``, ``smallest_eigenvalue``."""
-    real, vec3, mat33, block = spec.real, spec.vec3, spec.mat33, spec.used_block
+    real, vec3, mat33, block, used = spec.real, spec.vec3, spec.mat33, spec.used_block, spec.used_vector
     value_and_gradient = kernel_pair(spec)
     _outer, apply_on_used_axes, used_block_of = used_axes_algebra(spec)
+    used_vector_of, full_vector = used_vectors(spec)
     add_to_fit, finish_fit, invert_correction, unused = fit_parts(spec)
     zero = real(0.0)
     half = real(0.5)
@@ -135,7 +166,8 @@ def operator_functions(spec: Spec):
         h: real,
     ):
         """The fit data at x from the sources ``xs`` of volumes ``vols`` [m^dim] listed in nbr[start:end]:
-        c, 1/den, M⁻¹'s block on the used axes (as ``fit_weights`` takes it), e, M and whether corrected."""
+        c and M⁻¹ as stored (``used_vectors``, ``used_axes_algebra``) and as ``fit_weights`` takes them,
+        1/den, e, M and whether corrected."""
         w0 = zero
         wr = vec3(zero, zero, zero)
         g0 = vec3(zero, zero, zero)
@@ -144,14 +176,14 @@ def operator_functions(spec: Spec):
             b = nbr[k]
             w0, wr, g0, M, w, g = add_to_fit(xs[b] - x, vols[b], h, w0, wr, g0, M)
         c, inv_den, Minv, e, corrected = finish_fit(w0, wr, g0, M)
-        return c, inv_den, used_block_of(Minv), e, M, corrected
+        return used_vector_of(c), inv_den, used_block_of(Minv), e, M, corrected
 
     @wp.func
-    def fit_weights(r: vec3, h: real, c: vec3, inv_den: real, Minv: block):
-        """Value weight ψ and gradient weight φ of a source at offset r = x_b − x (times V_b); ``Minv``
-        M⁻¹'s block on the used axes (``used_axes_algebra``)."""
+    def fit_weights(r: vec3, h: real, c: used, inv_den: real, Minv: block):
+        """Value weight ψ and gradient weight φ of a source at offset r = x_b − x (times V_b); ``c`` and
+        ``Minv`` as stored (``used_vectors``, ``used_axes_algebra``)."""
         w, g = value_and_gradient(-r, h)
-        psi = (w - wp.dot(c, g)) * inv_den
+        psi = (w - wp.dot(full_vector(c), g)) * inv_den
         return psi, apply_on_used_axes(Minv, g)
 
     @wp.func

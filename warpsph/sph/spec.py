@@ -14,8 +14,8 @@ import warp as wp
 from warpsph.scene import Effects
 
 _TYPES = {
-    "float32": (wp.float32, wp.vec3f, wp.mat33f, wp.vec4f, wp.mat44f, wp.mat22f),
-    "float64": (wp.float64, wp.vec3d, wp.mat33d, wp.vec4d, wp.mat44d, wp.mat22d),
+    "float32": (wp.float32, wp.vec3f, wp.mat33f, wp.vec4f, wp.mat44f, wp.mat22f, wp.vec2f),
+    "float64": (wp.float64, wp.vec3d, wp.mat33d, wp.vec4d, wp.mat44d, wp.mat22d, wp.vec2d),
 }
 
 
@@ -67,6 +67,12 @@ class Spec:
         """Warp matrix type of a matrix's block on the used axes as stored per point: mat33 in 3D, the
         x–y block (mat22) in 1D and 2D, whose unused axes are the identity's."""
         return _TYPES[self.precision][2 if self.dim == 3 else 5]
+
+    @property
+    def used_vector(self):
+        """Warp vector type of a vector zero along the unused axes as stored per point: vec3 in 3D, its
+        x–y part (vec2) in 1D and 2D."""
+        return _TYPES[self.precision][1 if self.dim == 3 else 6]
 
     @property
     def axis_mask(self) -> tuple[float, float, float]:

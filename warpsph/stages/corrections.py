@@ -14,23 +14,23 @@ import warp as wp
 from warpsph.launching import launch, launch_rows
 from warpsph.model import Model
 from warpsph.sph.neighbours import NeighbourList
-from warpsph.sph.operators import operator_functions
+from warpsph.sph.operators import operator_functions, used_vectors
 from warpsph.sph.spec import Spec
 
 
 @functools.cache
 def fits_struct(spec: Spec):
     """The ``Fits`` @wp.struct of ``spec``'s precision: a point set's linear-fit data as the kernels take
-    it, (n,) each: c, 1/den, M⁻¹ (its block on the used axes), e and the correction matrix's smallest
-    eigenvalue (:class:`FitData`)."""
-    real, vec3, block = spec.real, spec.vec3, spec.used_block
+    it, (n,) each: c, 1/den, M⁻¹, e (as stored: their parts on the used axes) and the correction
+    matrix's smallest eigenvalue (:class:`FitData`)."""
+    real, used, block = spec.real, spec.used_vector, spec.used_block
 
     @wp.struct
     class Fits:
-        c: wp.array(dtype=vec3)
+        c: wp.array(dtype=used)
         inv_den: wp.array(dtype=real)
         minv: wp.array(dtype=block)
-        e: wp.array(dtype=vec3)
+        e: wp.array(dtype=used)
         smallest_eigenvalue: wp.array(dtype=real)
 
     return Fits
@@ -41,7 +41,8 @@ def _kernels(spec: Spec):
     real, vec3 = spec.real, spec.vec3
     Fits = fits_struct(spec)
     fit_operator, _weights, _unused, smallest_eigenvalue = operator_functions(spec)
-    used = 3 if spec.dim == 3 else 2  # axes of the stored block
+    used_vector_of = used_vectors(spec)[0]
+    axes = 3 if spec.dim == 3 else 2  # axes of the stored c, e and M⁻¹
 
     @wp.kernel(enable_backward=False, module="unique")
     def compute_fits(
@@ -60,7 +61,7 @@ def _kernels(spec: Spec):
         fit.c[i] = c
         fit.inv_den[i] = inv_den
         fit.minv[i] = Minv
-        fit.e[i] = e
+        fit.e[i] = used_vector_of(e)
         fit.smallest_eigenvalue[i] = smallest_eigenvalue(M)
 
     @wp.kernel(enable_backward=False, module="unique")
@@ -79,12 +80,12 @@ def _kernels(spec: Spec):
         planes = chain[g]
         for k in range(3):
             p = planes[k]
-            if p >= 0:
+            if p >= 0 and plane_axis[p] < wp.static(axes):
                 m = plane_axis[p]
                 c[m] = -c[m]
                 e[m] = -e[m]
-                for j in range(wp.static(used)):
-                    if j != m and m < wp.static(used):
+                for j in range(wp.static(axes)):
+                    if j != m:
                         Minv[m, j] = -Minv[m, j]
                         Minv[j, m] = -Minv[j, m]
         fit.c[n_owned + g] = c
@@ -106,14 +107,14 @@ class FitData:
     """Per-point fit data of one particle set (owned points and ghosts)."""
 
     def __init__(self, spec: Spec, count: int, device):
-        self.c = wp.zeros(count, dtype=spec.vec3, device=device)
-        """(n,) vec3 c = M⁻ᵀ Σ V W r [m]."""
+        self.c = wp.zeros(count, dtype=spec.used_vector, device=device)
+        """(n,) c = M⁻ᵀ Σ V W r [m] (``spec.used_vector``)."""
         self.inv_den = wp.zeros(count, dtype=spec.real, device=device)
         """(n,) 1 / (Σ V W − c·Σ V ∇W) [-]."""
         self.minv = wp.zeros(count, dtype=spec.used_block, device=device)
         """(n,) the inverse correction matrix's block on the used axes (``spec.used_block``) [-]."""
-        self.e = wp.zeros(count, dtype=spec.vec3, device=device)
-        """(n,) vec3 e = M⁻¹ Σ V ∇W [1/m]; −e points out of a free surface."""
+        self.e = wp.zeros(count, dtype=spec.used_vector, device=device)
+        """(n,) e = M⁻¹ Σ V ∇W [1/m] (``spec.used_vector``); −e points out of a free surface."""
         self.smallest_eigenvalue = wp.zeros(count, dtype=spec.real, device=device)
         """(n,) smallest eigenvalue of the correction matrix [-] (≈1 inside, ≈0.5 on a surface)."""
         self.struct = fits_struct(spec)()

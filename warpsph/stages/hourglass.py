@@ -16,7 +16,7 @@ from warpsph.model import Model, State
 from warpsph.physics.elastic import elastic_struct
 from warpsph.sph.kernels import smoothing_functions
 from warpsph.sph.neighbours import NeighbourList
-from warpsph.sph.operators import operator_functions, used_axes_algebra
+from warpsph.sph.operators import operator_functions, used_axes_algebra, used_vectors
 from warpsph.sph.spec import Spec
 from warpsph.stages.corrections import FitData, compute_fit_data, fits_struct
 from warpsph.stages.energy import STABILISATION
@@ -28,6 +28,7 @@ def _kernels(spec: Spec):
     ElasticMaterials = elastic_struct(spec)
     Fits = fits_struct(spec)
     _fit, fit_weights, _unused, _eig = operator_functions(spec)
+    full_vector = used_vectors(spec)[1]
     _W, grad_W = smoothing_functions(spec)
     outer = used_axes_algebra(spec)[0]
     zero, half = real(0.0), real(0.5)
@@ -49,7 +50,7 @@ def _kernels(spec: Spec):
             psi, phi = fit_weights(q[b] - x, h, fit.c[a], fit.inv_den[a], fit.minv[a])
             fitted += (volume[b] * psi) * v[b]
             G += outer(volume[b] * phi, v[b])
-        gradient[a] = G - outer(fit.e[a], fitted)
+        gradient[a] = G - outer(full_vector(fit.e[a]), fitted)
 
     @wp.func
     def pair_residual(a: int, b: int, n_owned: int, q: wp.array(dtype=vec3), v: wp.array(dtype=vec3),
@@ -108,7 +109,7 @@ def _kernels(spec: Spec):
             a = nbr[k]
             if a < n_owned:
                 psi, phi = fit_weights(x - q[a], h, fit.c[a], fit.inv_den[a], fit.minv[a])
-                f += (half * volume[c]) * (moment[a] * phi - psi * (moment[a] * fit.e[a]))
+                f += (half * volume[c]) * (moment[a] * phi - psi * (moment[a] * full_vector(fit.e[a])))
         before = v_out[c]
         after = before + (dt * alpha * elastic.wave_speed[material[c]] * h / mass[c]) * f
         v_out[c] = after

@@ -12,7 +12,7 @@ import warp as wp
 from warpsph.model import PLANE_TRACTION
 from warpsph.pore_water import water_struct
 from warpsph.sph.kernels import kernel_derivative, smoothing_functions
-from warpsph.sph.operators import fit_parts, operator_functions
+from warpsph.sph.operators import fit_parts, operator_functions, used_vectors
 from warpsph.sph.spec import Spec
 from warpsph.stages.boundaries import plane_functions, planes_struct
 from warpsph.stages.corrections import fits_struct
@@ -103,6 +103,7 @@ def pressure_kernels(spec: Spec):
     real, vec3 = spec.real, spec.vec3
     f64 = wp.float64
     _fit, fit_weights, _inv, _eig = operator_functions(spec)
+    full_vector = used_vectors(spec)[1]
     add_to_fit, finish_fit, _inv, _unused = fit_parts(spec)
 
     _W, grad_W = smoothing_functions(spec)
@@ -229,7 +230,7 @@ def pressure_kernels(spec: Spec):
             psi, phi = fit_weights(xs[b] - x, h, fits.c[a], fits.inv_den[a], fits.minv[a])
             fit += (vol * psi) * values[b]
             div += f64(vol * wp.dot(phi, values[b]))
-        out[a] = div - f64(wp.dot(fits.e[a], fit))
+        out[a] = div - f64(wp.dot(full_vector(fits.e[a]), fit))
 
     @wp.kernel(enable_backward=False, module="unique")
     def gradient_at_real(
@@ -248,7 +249,7 @@ def pressure_kernels(spec: Spec):
             psi, phi = fit_weights(xs[b] - x, h, fits.c[a], fits.inv_den[a], fits.minv[a])
             fit += f64(vol * psi) * values[b]
             grad += wp.vec3d(f64(phi[0]), f64(phi[1]), f64(phi[2])) * (f64(vol) * values[b])
-        ea = fits.e[a]
+        ea = full_vector(fits.e[a])
         out[a] = grad - wp.vec3d(f64(ea[0]), f64(ea[1]), f64(ea[2])) * fit
 
     @wp.kernel(enable_backward=False, module="unique")

@@ -8,6 +8,7 @@ import warp as wp
 
 from warpsph.launching import launch, launch_rows
 from warpsph.sph.kernels import smoothing_functions
+from warpsph.sph.operators import used_vectors
 from warpsph.sph.spec import Spec
 
 
@@ -16,6 +17,7 @@ def shifting_kernels(spec: Spec):
     """``(shift, add)`` kernels and the ``scaled`` function for ``spec``."""
     real, vec3 = spec.real, spec.vec3
     _W, grad_W = smoothing_functions(spec)
+    full_vector = used_vectors(spec)[1]
     moves = vec3(*map(real, spec.axis_mask))
 
     @wp.func
@@ -42,7 +44,7 @@ def shifting_kernels(spec: Spec):
         density: wp.array(dtype=real),
         with_rate: int,
         rate: wp.array(dtype=real),
-        fit_e: wp.array(dtype=vec3),
+        fit_e: wp.array(dtype=spec.used_vector),
         fit_lambda: wp.array(dtype=real),
         out: wp.array(dtype=vec3),
     ):
@@ -55,7 +57,7 @@ def shifting_kernels(spec: Spec):
             b = nbr[k]
             grad_c += (mass[b] / density[b]) * grad_W(x - q[b], h)
         dx = -(h * h) * grad_c
-        e = fit_e[a]
+        e = full_vector(fit_e[a])
         if fit_lambda[a] < surface_threshold and wp.length(e) > real(0.0):
             n = wp.normalize(e)
             dx = dx - wp.dot(dx, n) * n

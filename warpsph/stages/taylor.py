@@ -19,7 +19,7 @@ from warpsph.launching import launch, launch_rows
 from warpsph.physics.elastic import elastic_functions, elastic_struct, strain_energy_function
 from warpsph.physics.plasticity import material_struct, plastic_functions
 from warpsph.sph.kernels import smoothing_functions
-from warpsph.sph.operators import operator_functions, used_axes_algebra
+from warpsph.sph.operators import operator_functions, used_axes_algebra, used_vectors
 from warpsph.sph.packed_stress import as_stored, as_tensor, packed_stress_type
 from warpsph.sph.spec import Spec
 from warpsph.stages.corrections import fits_struct
@@ -43,6 +43,7 @@ def taylor_kernels(spec: Spec):
     stored_stress = packed_stress_type(spec)  # the virtual points' half-step stress
     stored_zero = stored_stress()
     _fit, fit_weights, _unused, _eig = operator_functions(spec)
+    full_vector, used_vector = used_vectors(spec)[1], spec.used_vector
     _W, grad_W = smoothing_functions(spec)
     outer = used_axes_algebra(spec)[0]
     shift_scaled = shifting_kernels(spec)[2]
@@ -64,15 +65,16 @@ def taylor_kernels(spec: Spec):
     variant = f"_plastic_{spec.yield_function}" if plasticity else ""
 
     @wp.func
-    def uncorrected(c: vec3, Minv: block):
+    def uncorrected(c: used_vector, Minv: block):
         """Whether a point's fit fell back to Shepard + the uncorrected gradient (its neighbours
         cannot fit a linear field): the fallback stores exactly c = 0 and M⁻¹ = I."""
-        return c == vec3(zero, zero, zero) and Minv == wp.identity(wp.static(used), dtype=real)
+        return c == used_vector() and Minv == wp.identity(wp.static(used), dtype=real)
 
     @wp.func
     def fit_value(
         x: vec3, start: int, end: int, nbr: wp.array(dtype=wp.int32), xs: wp.array(dtype=vec3),
-        vols: wp.array(dtype=real), values: wp.array(dtype=real), h: real, c: vec3, inv_den: real, Minv: block,
+        vols: wp.array(dtype=real), values: wp.array(dtype=real), h: real, c: used_vector, inv_den: real,
+        Minv: block,
     ):  # fmt: skip
         """A scalar field fitted at x from the sources of volumes ``vols`` (the value part of the linear fit)."""
         value = zero
@@ -137,7 +139,7 @@ def taylor_kernels(spec: Spec):
     def fit_fields(
         x: vec3, start: int, end: int, nbr: wp.array(dtype=wp.int32), xs: wp.array(dtype=vec3),
         vols: wp.array(dtype=real), vs: wp.array(dtype=vec3),
-        sigmas: wp.array(dtype=Any), h: real, c: vec3, inv_den: real, Minv: block, e: vec3,
+        sigmas: wp.array(dtype=Any), h: real, c: used_vector, inv_den: real, Minv: block, e: vec3,
         src: Fits, in_surface_band: bool, ps: wp.array(dtype=wp.float64), mid: real,
         water_on_surface: real, per_share: bool, beyond_sources: real, unit_weight: vec3,
         surface_water: SurfaceWater, rho_w: real,
@@ -187,7 +189,7 @@ def taylor_kernels(spec: Spec):
                 grad_p += (vol * real(ps[b])) * phi
             if in_surface_band:
                 psi_b, phi_b = fit_weights(x - xs[b], h, src.c[b], src.inv_den[b], src.minv[b])
-                surface_sum += vol * (psi_b * src.e[b] - phi_b)
+                surface_sum += vol * (psi_b * full_vector(src.e[b]) - phi_b)
                 if per_share:
                     share += vol * psi_b
         G -= outer(e, v)
@@ -279,7 +281,7 @@ def taylor_kernels(spec: Spec):
         v, s, G, div, p, _band, _water = fit_fields(x, offsets[i], offsets[i + 1], nbr, real_q, real_volume,
                                                     real_v,
                                      real_stress, h, virt_fit.c[i], virt_fit.inv_den[i], virt_fit.minv[i],
-                                     virt_fit.e[i], real_fit,
+                                     full_vector(virt_fit.e[i]), real_fit,
                                      virt_fit.smallest_eigenvalue[i] < surface_threshold, real_p, zero,
                                      water_on_surface, False, zero, surface_weight * rho * body_force, surface_water,
                                      point_water_density(water_density, mat))  # fmt: skip
@@ -364,7 +366,7 @@ def taylor_kernels(spec: Spec):
         body_force = skeleton_body_force(gravity, rho, water_density, mat)
         v_half, s_half, G, div, p, band, water = fit_fields(x, offsets[a], offsets[a + 1], nbr, virt_q, virt_volume,
                                             virt_v_half, virt_stress_half, h, real_fit.c[a], real_fit.inv_den[a],
-                                            real_fit.minv[a], real_fit.e[a], virt_fit,
+                                            real_fit.minv[a], full_vector(real_fit.e[a]), virt_fit,
                                             real_fit.smallest_eigenvalue[a] < surface_threshold,
                                             virt_p, half * dt, water_on_surface, surface_per_share != 0,
                                             half * spacing, surface_weight * rho * body_force, surface_water,
@@ -433,7 +435,7 @@ def taylor_kernels(spec: Spec):
                 i = nbr[k]
                 psi_i, phi_i = fit_weights(virt_q[i] - x, h, real_fit.c[a], real_fit.inv_den[a], real_fit.minv[a])
                 d_s += (virt_mass[i] / virt_density[i] * wp.dot(phi_i, dx)) * as_tensor(virt_stress_half[i])
-            d_s -= wp.dot(real_fit.e[a], dx) * s_half
+            d_s -= wp.dot(full_vector(real_fit.e[a]), dx) * s_half
         v_force = v[a] + dt * (div / rho + body_force + visc)
         v_mean = half * (v[a] + v_force)
         ledger[a, VISCOUS] -= wp.float64(dt * mass[a] * wp.dot(v_mean, visc))
@@ -484,7 +486,7 @@ def taylor_kernels(spec: Spec):
             psi, phi = fit_weights(real_q[b] - x, h, virt_fit.c[i], virt_fit.inv_den[i], virt_fit.minv[i])
             v += (vol * psi) * real_motion[b]
             G += outer(vol * phi, real_motion[b])
-        G -= outer(virt_fit.e[i], v)
+        G -= outer(full_vector(virt_fit.e[i]), v)
         G = wp.inverse(wp.identity(n=3, dtype=real) + half * dt * G) * G
         virt_density[i] = virt_density[i] * wp.exp(-dt * wp.trace(G))
 
