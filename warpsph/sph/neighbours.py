@@ -17,7 +17,7 @@ from warpsph.sph.spec import Spec
 
 
 @functools.cache
-def _kernels(spec: Spec):
+def _gather_kernel(spec: Spec):
     real, vec3 = spec.real, spec.vec3
 
     @wp.kernel(enable_backward=False, module="unique")
@@ -56,42 +56,44 @@ def _kernels(spec: Spec):
                 n = width
         counts[a] = n
 
-    @wp.kernel(enable_backward=False, module="unique")
-    def place(first: int, table_start: int, scanned: wp.array(dtype=wp.int32), offsets: wp.array(dtype=wp.int32)):
-        """End offset of row ``a`` (a row kernel): the chunk's start offset ``offsets[table_start]`` plus
-        the inclusive scan of the chunk's counts."""
-        a = first + wp.tid()
-        offsets[a + 1] = offsets[table_start] + scanned[a - table_start]
+    return gather
 
-    @wp.kernel(enable_backward=False, module="unique")
-    def compact(
-        first: int,
-        n_query: int,
-        width: int,
-        table_start: int,
-        padded: wp.array(dtype=wp.int32),
-        offsets: wp.array(dtype=wp.int32),
-        indices: wp.array(dtype=wp.int32),
-        overflow: wp.array(dtype=wp.int32),
-    ):
-        """Copy row ``a − table_start`` of the padded table to its CSR place (a row kernel), within the
-        room of ``indices``: offsets past it are clamped to it (each row clamps its own start, the last
-        row the end too; a row reading its neighbour's clamps it alike) and ``overflow[1]`` = 1."""
-        a = first + wp.tid()
-        room = indices.shape[0]
-        start = wp.min(offsets[a], room)
-        end = offsets[a + 1]
-        if end > room:
-            end = room
-            overflow[1] = 1
-        row = (a - table_start) * width
-        for k in range(end - start):
-            indices[start + k] = padded[row + k]
-        offsets[a] = start
-        if a == n_query - 1:
-            offsets[a + 1] = end
 
-    return gather, place, compact
+@wp.kernel(enable_backward=False)
+def place(first: int, table_start: int, scanned: wp.array(dtype=wp.int32), offsets: wp.array(dtype=wp.int32)):
+    """End offset of row ``a`` (a row kernel): the chunk's start offset ``offsets[table_start]`` plus
+    the inclusive scan of the chunk's counts."""
+    a = first + wp.tid()
+    offsets[a + 1] = offsets[table_start] + scanned[a - table_start]
+
+
+@wp.kernel(enable_backward=False)
+def compact(
+    first: int,
+    n_query: int,
+    width: int,
+    table_start: int,
+    padded: wp.array(dtype=wp.int32),
+    offsets: wp.array(dtype=wp.int32),
+    indices: wp.array(dtype=wp.int32),
+    overflow: wp.array(dtype=wp.int32),
+):
+    """Copy row ``a − table_start`` of the padded table to its CSR place (a row kernel), within the
+    room of ``indices``: offsets past it are clamped to it (each row clamps its own start, the last
+    row the end too; a row reading its neighbour's clamps it alike) and ``overflow[1]`` = 1."""
+    a = first + wp.tid()
+    room = indices.shape[0]
+    start = wp.min(offsets[a], room)
+    end = offsets[a + 1]
+    if end > room:
+        end = room
+        overflow[1] = 1
+    row = (a - table_start) * width
+    for k in range(end - start):
+        indices[start + k] = padded[row + k]
+    offsets[a] = start
+    if a == n_query - 1:
+        offsets[a + 1] = end
 
 
 def grid_dims(extent: np.ndarray, cell: float, dim: int, max_cells: int = 256) -> tuple[int, int, int]:
@@ -133,9 +135,9 @@ class NeighbourList:
     ``offsets`` (n_query + 1,) int32 and ``indices`` int32: the neighbours of query point a are
     ``indices[offsets[a]:offsets[a+1]]``, in hash-grid cell order.
 
-    A build makes one hash-grid query pass in ``CHUNKS`` chunks of rows: each chunk stores up to
+    A build makes one hash-grid query pass in up to ``CHUNKS`` chunks of rows: each chunk stores up to
     ``width`` neighbours per query point in a padded table (:class:`NeighbourScratch`, one chunk's
-    rows, so a quarter of the points') while counting them, scans its counts onto the offsets of the
+    rows, a quarter of a large set's points) while counting them, scans its counts onto the offsets of the
     chunks before it and compacts its table into CSR. A build of as many points as the last reads
     nothing from the device: it marks on the device a point with more neighbours than ``width``
     (which keeps its first ``width``) or more pairs than ``indices`` holds, and :meth:`check`, called
@@ -149,7 +151,11 @@ class NeighbourList:
     INDEX_HEADROOM = 1.1
     """Room of the CSR indices over the pairs seen [-]."""
     CHUNKS = 4
-    """Chunks of rows a build's query pass is split into: the padded table holds one chunk's rows."""
+    """Chunks of rows a build's query pass is split into, of about ``CHUNK_ROWS`` rows or more: the padded
+    table holds one chunk's rows."""
+    CHUNK_ROWS = 4096
+    """Rows of a chunk, about: a build of fewer than 1.5 times as many is one chunk (four launches), since
+    a small step's cost is its launches."""
 
     def __init__(self, spec: Spec, extent: np.ndarray, radius: float, device, same_set: bool = False,
                  scratch: NeighbourScratch | None = None):  # fmt: skip
@@ -185,13 +191,12 @@ class NeighbourList:
         self.n_query, self.n_source = n_query, n_source
         if n_query == 0:
             self.offsets.zero_()
-            return
-        self.offsets[:1].zero_()
+            return  # offsets[0] stays 0: allocated zero, and the first row's start is clamped to it
         args = [wp.uint64(grid.id), query, src, real(self.radius), int(self.same_set)]
         if not sized:
             self._size(args)
-        gather, place, compact = _kernels(self.spec)
-        rows = -(-n_query // self.CHUNKS)
+        gather = _gather_kernel(self.spec)
+        rows = -(-n_query // max(1, min(self.CHUNKS, round(n_query / self.CHUNK_ROWS))))
         padded, scanned = self.scratch.table(rows, self.width)
         for start in range(0, n_query, rows):
             chunk = min(rows, n_query - start)
@@ -205,7 +210,7 @@ class NeighbourList:
     def _size(self, args: list) -> None:
         """The ``width`` a build of these points needs, ``GROWTH`` over the largest count, and the room of
         ``indices``, from a query pass that only counts (reads the device)."""
-        launch_rows(_kernels(self.spec)[0], self.n_query,
+        launch_rows(_gather_kernel(self.spec), self.n_query,
                     [*args, 0, 0, self.counts, self.scratch.padded, self._sizing], self.device)  # fmt: skip
         counts = self.counts.numpy()[: self.n_query]
         self.width = int(counts.max() * self.GROWTH) + 1
