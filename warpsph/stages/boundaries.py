@@ -13,7 +13,7 @@ from warpsph.model import PLANE_FIXED, PLANE_SLIP, PLANE_TRACTION, PLANE_VELOCIT
 from warpsph.physics.elastic import elastic_struct, strain_energy_function
 from warpsph.sph.packed_stress import as_stored, as_tensor
 from warpsph.sph.spec import Spec
-from warpsph.stages.energy import BOUNDARIES
+from warpsph.stages.energy import BOUNDARIES, ledger_columns
 
 
 @functools.cache
@@ -99,6 +99,7 @@ def gravity_struct(spec: Spec):
 def _kernels(spec: Spec, stress_type=None):
     """The planes' kernels; ``update_ghosts`` for stresses stored as ``stress_type`` (default mat33; the
     virtual points' scratch is :mod:`warpsph.sph.packed_stress`'s)."""
+    column = ledger_columns(spec)  # the energy ledger's column of each channel
     real, vec3, mat33 = spec.real, spec.vec3, spec.mat33
     stress_type = stress_type or mat33
     two = real(2.0)
@@ -229,7 +230,7 @@ def _kernels(spec: Spec, stress_type=None):
         given = real(0.5) * mass[a] * (wp.dot(u, u) - wp.dot(v[a], v[a]))
         given += mass[a] / density[a] * (psi(s, elastic.lam[mat], elastic.shear[mat])
                                          - psi(stress[a], elastic.lam[mat], elastic.shear[mat]))
-        ledger[a, BOUNDARIES] += wp.float64(given)
+        ledger[a, wp.static(column[BOUNDARIES])] += wp.float64(given)
         v[a] = u
         stress[a] = s
 

@@ -12,7 +12,7 @@ import warp as wp
 from warpsph.launching import launch
 from warpsph.model import PLANE_VELOCITY, Model
 from warpsph.sph.spec import Spec
-from warpsph.stages.energy import DAMPING
+from warpsph.stages.energy import DAMPING, ledger_columns
 
 
 EQUILIBRIUM_VELOCITY_FILTER = 0.5
@@ -25,6 +25,7 @@ unbalanced-force ratio stalls at 7e-3 before the run blows up; β = 0.1 stalls a
 
 @functools.cache
 def damping_kernel(spec: Spec):
+    column = ledger_columns(spec)  # the energy ledger's column of each channel
     real, vec3 = spec.real, spec.vec3
 
     @wp.kernel(enable_backward=False, module="unique")
@@ -47,7 +48,7 @@ def damping_kernel(spec: Spec):
             undamped = v_out[i]
             v_out[i] = v_in[i] + dt * damped
             removed = real(0.5) * mass[i] * (wp.dot(undamped, undamped) - wp.dot(v_out[i], v_out[i]))
-            ledger[i, DAMPING] += wp.float64(removed)
+            ledger[i, wp.static(column[DAMPING])] += wp.float64(removed)
         wp.atomic_add(sums, 0, wp.float64(mass[i] * wp.length(a)))
         wp.atomic_add(sums, 1, wp.float64(real(0.5) * mass[i] * wp.dot(v_out[i], v_out[i])))
 

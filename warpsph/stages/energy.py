@@ -34,8 +34,18 @@ BALANCE_WARNING = 0.01
 """A balance that misses by more than this fraction of the energy turned over is reported."""
 
 
+def ledger_columns(spec: Spec) -> dict[int, int]:
+    """The column of each channel in the ledger of ``spec``'s variant: every channel but the plastic one
+    without plasticity and the pore water's without pore water, in channel order."""
+    effects = spec.effects
+    absent = {PLASTIC} if not effects.plasticity else set()
+    absent |= {PORE_WATER} if not effects.pore_water else set()
+    return {channel: k for k, channel in enumerate(c for c in range(CHANNELS) if c not in absent)}
+
+
 @functools.cache
 def _boundary_kernel(spec: Spec):
+    column = ledger_columns(spec)  # the energy ledger's column of each channel
     real, vec3, mat33 = spec.real, spec.vec3, spec.mat33
     half = real(0.5)
 
@@ -79,7 +89,7 @@ def _boundary_kernel(spec: Spec):
                 if plane_kind[planes[c]] == PLANE_SLIP:
                     traction = wp.dot(traction, normal) * normal
                 work += area * wp.dot(traction, moved)
-        ledger[a, BOUNDARIES] += wp.float64(work)
+        ledger[a, wp.static(column[BOUNDARIES])] += wp.float64(work)
 
     return boundary_work
 
@@ -99,6 +109,7 @@ def _sum_kernel(spec: Spec):
         material: wp.array(dtype=wp.int32),
         elastic: ElasticMaterials,
         ledger: wp.array2d(dtype=wp.float64),
+        channel_of: wp.array(dtype=wp.int32),
         sums: wp.array(dtype=wp.float64),
     ):
         a = wp.tid()
@@ -106,19 +117,21 @@ def _sum_kernel(spec: Spec):
         wp.atomic_add(sums, KINETIC, wp.float64(real(0.5) * mass[a] * wp.dot(v[a], v[a])))
         strain = psi(stress[a], elastic.lam[mat], elastic.shear[mat])
         wp.atomic_add(sums, STRAIN, wp.float64(mass[a] / density[a] * strain))
-        for c in range(CHANNELS):
-            wp.atomic_add(sums, LEDGER + c, ledger[a, c])
+        for c in range(ledger.shape[1]):
+            wp.atomic_add(sums, LEDGER + channel_of[c], ledger[a, c])
 
     return sum_energies
 
 
 class EnergyLedger:
-    """The per-particle ledger (capacity × ``CHANNELS``, float64) the step's kernels add to, and the
-    boundary planes' work, added after the step's prescribed values."""
+    """The per-particle ledger (capacity × the variant's channels, float64: :func:`ledger_columns`) the
+    step's kernels add to, and the boundary planes' work, added after the step's prescribed values."""
 
     def __init__(self, model: Model):
         self.model = model
-        self.ledger = wp.zeros((model.particle_capacity, CHANNELS), dtype=wp.float64, device=model.device)
+        channels = list(ledger_columns(model.spec))
+        self.ledger = wp.zeros((model.particle_capacity, len(channels)), dtype=wp.float64, device=model.device)
+        self._channel_of = wp.array(channels, dtype=wp.int32, device=model.device)
         self._no_pressure = wp.zeros(1, dtype=wp.float64, device=model.device)
         self._sums = wp.zeros(LEDGER + CHANNELS, dtype=wp.float64, device=model.device)
 
@@ -139,12 +152,12 @@ class EnergyLedger:
         """(``LEDGER`` + ``CHANNELS``,) sums over the owned particles of ``state``, made on the device and
         left there: the kinetic energy ½ m v², the strain energy V ψ(σ′) (ψ the linear law's elastic
         energy density, :func:`~warpsph.physics.elastic.strain_energy_function`, V = m/ρ), then the
-        ledger's columns [J, J/m in 2D]."""
+        ledger's channels [J, J/m in 2D] (0 for those the variant's ledger does not hold)."""
         m = self.model
         self._sums.zero_()
         launch(_sum_kernel(m.spec), m.particle_count,
                [m.particle_mass, state.particle_v, state.particle_stress, state.particle_density, m.particle_material,
-                m.material_elastic, self.ledger, self._sums], m.device)  # fmt: skip
+                m.material_elastic, self.ledger, self._channel_of, self._sums], m.device)  # fmt: skip
         return self._sums
 
     def sums(self, state: State) -> np.ndarray:

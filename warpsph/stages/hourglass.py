@@ -19,11 +19,12 @@ from warpsph.sph.neighbours import NeighbourList
 from warpsph.sph.operators import operator_functions, used_axes_algebra, used_vectors
 from warpsph.sph.spec import Spec
 from warpsph.stages.corrections import FitData, compute_fit_data, fits_struct
-from warpsph.stages.energy import STABILISATION
+from warpsph.stages.energy import STABILISATION, ledger_columns
 
 
 @functools.cache
 def _kernels(spec: Spec):
+    column = ledger_columns(spec)  # the energy ledger's column of each channel
     real, vec3, mat33 = spec.real, spec.vec3, spec.mat33
     ElasticMaterials = elastic_struct(spec)
     Fits = fits_struct(spec)
@@ -113,7 +114,7 @@ def _kernels(spec: Spec):
         before = v_out[c]
         after = before + (dt * alpha * elastic.wave_speed[material[c]] * h / mass[c]) * f
         v_out[c] = after
-        ledger[c, STABILISATION] -= wp.float64(half * mass[c] * (wp.dot(after, after) - wp.dot(before, before)))
+        ledger[c, wp.static(column[STABILISATION])] -= wp.float64(half * mass[c] * (wp.dot(after, after) - wp.dot(before, before)))
 
     return velocity_gradient, pair_terms, damp_residual
 

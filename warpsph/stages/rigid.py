@@ -9,7 +9,7 @@ import warp as wp
 
 from warpsph.launching import launch
 from warpsph.sph.spec import Spec
-from warpsph.stages.energy import RIGID
+from warpsph.stages.energy import RIGID, ledger_columns
 
 MODE_VELOCITY, MODE_FORCE = 0, 1
 RIGID_LOAD_KINDS = {"velocity": MODE_VELOCITY, "force": MODE_FORCE}
@@ -17,6 +17,7 @@ RIGID_LOAD_KINDS = {"velocity": MODE_VELOCITY, "force": MODE_FORCE}
 
 @functools.cache
 def _kernels(spec: Spec):
+    column = ledger_columns(spec)  # the energy ledger's column of each channel
     real, vec3, mat33 = spec.real, spec.vec3, spec.mat33
 
     @wp.kernel(enable_backward=False, module="unique")
@@ -71,7 +72,7 @@ def _kernels(spec: Spec):
         dv = constrained[k] * (v_rigid[k] - v[a])
         wp.atomic_add(impulse, k, mass[a] * dv)
         v_new = v[a] + dv
-        ledger[a, RIGID] += wp.float64(real(0.5) * mass[a] * (wp.dot(v_new, v_new) - wp.dot(v[a], v[a])))
+        ledger[a, wp.static(column[RIGID])] += wp.float64(real(0.5) * mass[a] * (wp.dot(v_new, v_new) - wp.dot(v[a], v[a])))
         v[a] = v_new
 
     @wp.kernel(enable_backward=False, module="unique")

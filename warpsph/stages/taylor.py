@@ -23,7 +23,7 @@ from warpsph.sph.operators import operator_functions, used_axes_algebra, used_ve
 from warpsph.sph.packed_stress import as_stored, as_tensor, packed_stress_type
 from warpsph.sph.spec import Spec
 from warpsph.stages.corrections import fits_struct
-from warpsph.stages.energy import BOUNDARIES, GRAVITY, PLASTIC, PORE_WATER, STABILISATION, VISCOUS
+from warpsph.stages.energy import BOUNDARIES, GRAVITY, PLASTIC, PORE_WATER, STABILISATION, VISCOUS, ledger_columns
 from warpsph.stages.shifting import shifting_kernels
 from warpsph.stages.surface_water import SurfaceWater, water_against_surface
 
@@ -38,6 +38,7 @@ Measured on the free plate (docs/method.md): one step's spectral radius 1.000059
 @functools.cache
 def taylor_kernels(spec: Spec):
     """``(half_step, full_step, virtual_continuity, motion_over_step)`` kernels for ``spec``."""
+    column = ledger_columns(spec)  # the energy ledger's column of each channel
     real, vec3, mat33, block = spec.real, spec.vec3, spec.mat33, spec.used_block
     used = 3 if spec.dim == 3 else 2  # axes of a stored M⁻¹ block
     stored_stress = packed_stress_type(spec)  # the virtual points' half-step stress
@@ -402,9 +403,9 @@ def taylor_kernels(spec: Spec):
         if wp.static(plasticity):
             # the law's work V σ̄:Δt d less the elastic energy it stores: the plastic dissipation
             stored = psi(s_new, lam, shear) - psi(s, lam, shear)
-            ledger[a, PLASTIC] += wp.float64(vol * (dt * wp.ddot(half * (s + s_new), d) - stored))
+            ledger[a, wp.static(column[PLASTIC])] += wp.float64(vol * (dt * wp.ddot(half * (s + s_new), d) - stored))
         if wp.static(pore_water):
-            ledger[a, PORE_WATER] += wp.float64(vol * real(p) * dt * wp.trace(d))
+            ledger[a, wp.static(column[PORE_WATER])] += wp.float64(vol * real(p) * dt * wp.trace(d))
         s_law = s_new
         if free:
             v_half = v[a] + half * dt * body_force
@@ -438,11 +439,11 @@ def taylor_kernels(spec: Spec):
             d_s -= wp.dot(full_vector(real_fit.e[a]), dx) * s_half
         v_force = v[a] + dt * (div / rho + body_force + visc)
         v_mean = half * (v[a] + v_force)
-        ledger[a, VISCOUS] -= wp.float64(dt * mass[a] * wp.dot(v_mean, visc))
+        ledger[a, wp.static(column[VISCOUS])] -= wp.float64(dt * mass[a] * wp.dot(v_mean, visc))
         # the surface band's term: the water's pressure on the surface is a load; the rest, the weak
         # traction-free condition (and the weight above the point), a stabilisation of the surface
-        ledger[a, BOUNDARIES] += wp.float64(dt * vol * wp.dot(v_mean, water))
-        ledger[a, STABILISATION] -= wp.float64(dt * vol * wp.dot(v_mean, band))
+        ledger[a, wp.static(column[BOUNDARIES])] += wp.float64(dt * vol * wp.dot(v_mean, water))
+        ledger[a, wp.static(column[STABILISATION])] -= wp.float64(dt * vol * wp.dot(v_mean, band))
         v_out[a] = v_force + d_v
         if velocity_filter > zero and not free:
             # the part of the particle's velocity the virtual points do not see: its own mid-step
@@ -456,7 +457,7 @@ def taylor_kernels(spec: Spec):
         # what the filters and the shift changed of the particle's kinetic and elastic energy
         kinetic = half * mass[a] * (wp.dot(v_out[a], v_out[a]) - wp.dot(v_force, v_force))
         strained = vol * (psi(stress_out[a], lam, shear) - psi(s_law, lam, shear))
-        ledger[a, STABILISATION] -= wp.float64(kinetic + strained)
+        ledger[a, wp.static(column[STABILISATION])] -= wp.float64(kinetic + strained)
         if own_velocity != 0:
             # the particle moves with its own velocity, the mean of vⁿ and vⁿ⁺¹ (the shift's
             # correction of the field aside): a velocity it gains also moves it
@@ -464,7 +465,7 @@ def taylor_kernels(spec: Spec):
         else:
             q_out[a] = x + dt * wp.cw_mul(v_half, moves) + dx
         density_out[a] = rho * wp.exp(opening - dt * wp.trace(d))
-        ledger[a, GRAVITY] += wp.float64(mass[a] * wp.dot(body_force, q_out[a] - x))
+        ledger[a, wp.static(column[GRAVITY])] += wp.float64(mass[a] * wp.dot(body_force, q_out[a] - x))
 
 
     @wp.kernel(enable_backward=False, module="unique")
