@@ -31,7 +31,8 @@ def poisson_system(n: int, rng):
     dense[np.arange(n), np.arange(n)] = diag
     no_ghosts = wp.zeros(1, dtype=wp.int32, device=DEVICE)
     rows = sparse_rows(wp.array(offsets, dtype=wp.int32, device=DEVICE),
-                       wp.array(weight, dtype=wp.float64, device=DEVICE), wp.array(column, dtype=wp.int32, device=DEVICE), no_ghosts,
+                       wp.array(weight, dtype=wp.float64, device=DEVICE),
+                       wp.array(column, dtype=wp.int32, device=DEVICE), no_ghosts,
                        wp.array(diag, dtype=wp.float64, device=DEVICE), n)  # fmt: skip
     return rows, dense, rng.standard_normal(n)
 

@@ -114,7 +114,8 @@ def _kernels(spec: Spec):
         before = v_out[c]
         after = before + (dt * alpha * elastic.wave_speed[material[c]] * h / mass[c]) * f
         v_out[c] = after
-        ledger[c, wp.static(column[STABILISATION])] -= wp.float64(half * mass[c] * (wp.dot(after, after) - wp.dot(before, before)))
+        gained = half * mass[c] * (wp.dot(after, after) - wp.dot(before, before))
+        ledger[c, wp.static(column[STABILISATION])] -= wp.float64(gained)
 
     return velocity_gradient, pair_terms, damp_residual
 

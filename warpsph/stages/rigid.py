@@ -72,7 +72,8 @@ def _kernels(spec: Spec):
         dv = constrained[k] * (v_rigid[k] - v[a])
         wp.atomic_add(impulse, k, mass[a] * dv)
         v_new = v[a] + dv
-        ledger[a, wp.static(column[RIGID])] += wp.float64(real(0.5) * mass[a] * (wp.dot(v_new, v_new) - wp.dot(v[a], v[a])))
+        given = real(0.5) * mass[a] * (wp.dot(v_new, v_new) - wp.dot(v[a], v[a]))
+        ledger[a, wp.static(column[RIGID])] += wp.float64(given)
         v[a] = v_new
 
     @wp.kernel(enable_backward=False, module="unique")
