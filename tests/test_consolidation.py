@@ -24,29 +24,32 @@ SOIL = Material("soil", density=1700.0, youngs_modulus=30e6, poisson_ratio=0.2, 
 P0, CV, S0, S_INF = consolidation_constants(SOIL, HEIGHT, SIGMA0)
 
 
-def consolidation_scene(dx: float, tv_end: float = 0.5, frames: int = 5, **phase):
-    scene = consolidating_column(SOIL, HEIGHT, dx, SIGMA0)
-    scene.phases = [Phase(name="consolidation", kind="consolidation", duration=tv_end * HEIGHT**2 / CV,
+def consolidation_scene(dx: float, tv_end: float = 0.5, frames: int = 5, soil=SOIL, height=HEIGHT,
+                        sigma0=SIGMA0, **phase):  # fmt: skip
+    scene = consolidating_column(soil, height, dx, sigma0)
+    cv = consolidation_constants(soil, height, sigma0)[1]
+    scene.phases = [Phase(name="consolidation", kind="consolidation", duration=tv_end * height**2 / cv,
                           frames=frames, **phase)]  # fmt: skip
     scene.output.usd = False
     scene.output.fields = ["displacement", "pore_pressure", "stress"]
     return scene.validate()
 
 
-def errors(out, dx: float) -> list[tuple[float, float, float, float]]:
+def errors(out, dx: float, soil=SOIL, height=HEIGHT, sigma0=SIGMA0) -> list[tuple[float, float, float, float]]:
     """(T_v, L2 of p over p₀, U from the pressure − U, settlement over the closed form's − 1) of
     each frame after the first."""
+    p0, cv, s0, s_inf = consolidation_constants(soil, height, sigma0)
     results = load_results(out / "results.h5")
     x0 = results.frame(0)["position"]
     top = np.argmax(x0[:, 1])
     rows = []
     for i in range(1, len(results)):
-        frame, tv = results.frame(i), results.times[i] * CV / HEIGHT**2
+        frame, tv = results.frame(i), results.times[i] * cv / height**2
         p = frame["pore_pressure"]
         u = degree_of_consolidation(tv)
-        settlement = S0 - frame["displacement"][top, 1]
-        rows.append((tv, pressure_l2(p, HEIGHT - x0[:, 1], HEIGHT, P0, tv), 1.0 - np.mean(p) / P0 - u,
-                     settlement / (S0 + (S_INF - S0) * u) - 1.0))  # fmt: skip
+        settlement = s0 - frame["displacement"][top, 1]
+        rows.append((tv, pressure_l2(p, height - x0[:, 1], height, p0, tv), 1.0 - np.mean(p) / p0 - u,
+                     settlement / (s0 + (s_inf - s0) * u) - 1.0))  # fmt: skip
     print("\n  T_v   L2/p0    U_p − U   settlement error")
     for tv, l2, du, ds in rows:
         print(f"  {tv:.3f}  {l2:.2e}  {du:+.4f}   {ds:+.4f}")
@@ -84,6 +87,25 @@ def test_late_steps_are_sized_on_what_remains_to_dissipate(tmp_path):
     l2 = [r[1] for r in rows]
     assert max(l2) < 0.004 and l2[-1] <= l2[-2]
     assert all(abs(du) < 0.01 for _, _, du, _ in rows)
+
+
+SOFT_CLAY = Material("clay", density=1990.0, youngs_modulus=5e6, poisson_ratio=0.3, porosity=0.4, grain_density=2650.0,
+                     water_bulk_modulus=2.2e9, hydraulic_conductivity=1e-7)  # fmt: skip
+"""Soft clay with real water (B ≈ 1), c_v = 4.1e-4 m²/s: a 6 m layer consolidates over a day."""
+
+
+def test_undrained_start_on_soft_clay_with_real_water(tmp_path):
+    """A 6 m soft clay layer under 50 kPa from its undrained state (issue 48), Δx = 0.5 m, to T_v = 0.4:
+    p within 1 % of p₀ (L2), U within 0.01, the phase finished. The first step's skeleton takes the
+    drained top's pressure at once: held at the undrained p₀ there, the top particle's stress (the load
+    alone) and pore pressure summed to twice the load, and the step's equilibrium never converged.
+    Measured to T_v = 1: L2 9.9e-4 … 2.9e-4 p₀ and U − U(T_v) +0.0086 … +0.0010 at T_v = 0.2 … 1 (Δx = 0.5 m,
+    the same at k = 1e-5 m/s), 7.3e-4 … 1.7e-4 and +0.0041 … +0.0008 at Δx = 0.25 m."""
+    scene = consolidation_scene(0.5, tv_end=0.4, frames=2, soil=SOFT_CLAY, height=6.0, sigma0=50e3)
+    summary = Run(scene, tmp_path).run()
+    assert summary.phases[0]["outcome"] == "finished"
+    for _tv, l2, du, _ds in errors(tmp_path, 0.5, soil=SOFT_CLAY, height=6.0, sigma0=50e3):
+        assert l2 < 0.01 and abs(du) < 0.01
 
 
 @pytest.mark.slow

@@ -67,6 +67,11 @@ class FixedStressSplit:
         self.saved.assign(state)
         wp.copy(self.start_pressure, state.particle_pore_pressure, count=n)
         start = self.start_pressure.numpy()
+        # the first iterate's skeleton carries the boundary's pressures at t: on a drained face that
+        # takes its load alone, held at the pressure before it, the stress a face particle is given and
+        # its pore pressure would not sum to the load
+        flow.state = state
+        flow.hold_prescribed(t)
         strain_start = self._strain(state)
         self._seeping = flow.seeping.copy()
         self.collapsed = False

@@ -114,6 +114,15 @@ class GroundwaterFlow:
         value[free], tag[free] = -self.hydro[free], seepage_tag
         return dirichlet, value, np.maximum(tag, 0), free
 
+    def hold_prescribed(self, t: float) -> None:
+        """Set the state's excess pore pressure to its prescribed value at time ``t`` on the rows held
+        there (drained planes, faces a reservoir wets), the other rows as they are."""
+        held, value, _tag, _candidates = self._conditions(t)
+        n = self.model.particle_count
+        p = self.state.particle_pore_pressure.numpy().copy()
+        p[:n][held == 1] = value[held == 1]
+        self.state.particle_pore_pressure.assign(p)
+
     # -- one step -------------------------------------------------------------------------------
     def _args(self, inv_dt: float, p_iter):
         m, pw = self.model, self.model.pore
