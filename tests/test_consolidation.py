@@ -94,14 +94,18 @@ SOFT_CLAY = Material("clay", density=1990.0, youngs_modulus=5e6, poisson_ratio=0
 """Soft clay with real water (B ≈ 1), c_v = 4.1e-4 m²/s: a 6 m layer consolidates over a day."""
 
 
-def test_undrained_start_on_soft_clay_with_real_water(tmp_path):
-    """A 6 m soft clay layer under 50 kPa from its undrained state (issue 48), Δx = 0.5 m, to T_v = 0.4:
-    p within 1 % of p₀ (L2), U within 0.01, the phase finished. The first step's skeleton takes the
-    drained top's pressure at once: held at the undrained p₀ there, the top particle's stress (the load
-    alone) and pore pressure summed to twice the load, and the step's equilibrium never converged.
-    Measured to T_v = 1: L2 9.9e-4 … 2.9e-4 p₀ and U − U(T_v) +0.0086 … +0.0010 at T_v = 0.2 … 1 (Δx = 0.5 m,
-    the same at k = 1e-5 m/s), 7.3e-4 … 1.7e-4 and +0.0041 … +0.0008 at Δx = 0.25 m."""
+@pytest.mark.parametrize("start", ["undrained", "load switched on"])
+def test_soft_clay_with_real_water_from_either_start(tmp_path, start):
+    """A 6 m soft clay layer under 50 kPa (issue 48), Δx = 0.5 m, to T_v = 0.4, from its undrained state
+    or unloaded with the load switched on at the phase's start: p within 1 % of p₀ (L2), U within 0.01,
+    the phase finished. From the undrained state the first step's skeleton takes the drained top's
+    pressure at once: held at the undrained p₀ there, the top particle's stress (the load alone) and
+    pore pressure summed to twice the load, and the step's equilibrium never converged. Measured to
+    T_v = 1: L2 9.9e-4 … 2.9e-4 p₀ and U − U(T_v) +0.0086 … +0.0010 at T_v = 0.2 … 1 (Δx = 0.5 m, the same
+    at k = 1e-5 m/s and with the load switched on), 7.3e-4 … 1.7e-4 and +0.0041 … +0.0008 at Δx = 0.25 m."""
     scene = consolidation_scene(0.5, tv_end=0.4, frames=2, soil=SOFT_CLAY, height=6.0, sigma0=50e3)
+    if start == "load switched on":
+        scene.bodies[0].pore_pressure, scene.bodies[0].stress = 0.0, (0.0,) * 6
     summary = Run(scene, tmp_path).run()
     assert summary.phases[0]["outcome"] == "finished"
     for _tv, l2, du, _ds in errors(tmp_path, 0.5, soil=SOFT_CLAY, height=6.0, sigma0=50e3):
