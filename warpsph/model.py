@@ -217,7 +217,7 @@ def host_fields(model: Model, state: State, rows: np.ndarray | None = None,
     }
     if model.pore is not None:
         material = model.particle_material.numpy()[:n] if rows is None else read(model.particle_material)
-        water_density = model.pore.material_water_density.numpy()[material]
+        water_density = model.pore.water.density.numpy()[material]
         hydrostatic = model.pore.hydrostatic(fields["position"], water_density)
         fields["pore_pressure"] = read(state.particle_pore_pressure) + hydrostatic
     if state.particle_plastic_strain is not None:

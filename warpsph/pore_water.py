@@ -69,22 +69,6 @@ class PoreWaterModel:
     """Per material (n_materials,) k = k_h/(ρ_w g) [m³·s/kg], 1/Q [1/Pa], ρ_w [kg/m³] and n [-], with the
     gravity and the water table, as one ``Water`` struct (:func:`water_struct`)."""
 
-    @property
-    def material_permeability(self) -> wp.array:
-        return self.water.permeability
-
-    @property
-    def material_inv_biot(self) -> wp.array:
-        return self.water.inv_biot
-
-    @property
-    def material_water_density(self) -> wp.array:
-        return self.water.density
-
-    @property
-    def material_porosity(self) -> wp.array:
-        return self.water.porosity
-
     def drained_plane_particles(self, model) -> tuple[np.ndarray, np.ndarray]:
         """(on, plane): the owned particles lying on drained planes (int32 mask) and the plane's index
         (−1 off them)."""
@@ -124,7 +108,7 @@ class PlaneDrainage:
         self.on, self.plane = pw.drained_plane_particles(model)
         rows = np.flatnonzero(self.on)
         x = model.particle_x0[rows]
-        rho_w = pw.material_water_density.numpy()[model.particle_material.numpy()[rows]]
+        rho_w = pw.water.density.numpy()[model.particle_material.numpy()[rows]]
         self._rows, self._y = rows, x[:, 1]
         self._rho_g = rho_w * float(np.linalg.norm(pw.gravity))
         self._hydrostatic = pw.hydrostatic(x, rho_w)

@@ -322,7 +322,7 @@ class Solver:
 
     @property
     def _water_density(self):
-        return self.model.pore.material_water_density if self.model.pore is not None else None
+        return self.model.pore.water.density if self.model.pore is not None else None
 
     def _project(self, si: State, so: State, t: float, dt: float) -> None:
         """Pressure projection, then the prescribed velocities again (the correction moves them)."""

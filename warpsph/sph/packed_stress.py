@@ -13,7 +13,7 @@ _PACKED = {("float32", 2): wp.vec4f, ("float64", 2): wp.vec4d, ("float32", 3): v
 
 def packed_stress_type(spec):
     """The Warp vector type a stress is stored as for ``spec`` (4 entries in 1D and 2D, 6 in 3D)."""
-    return _PACKED[spec.precision, 3 if spec.dim == 3 else 2]
+    return _PACKED[spec.precision, spec.stored_axes]
 
 
 @wp.func

@@ -63,16 +63,22 @@ class Spec:
         return _TYPES[self.precision][4]
 
     @property
+    def stored_axes(self) -> int:
+        """Axes of a per-point vector or matrix as stored: 3 in 3D, the x–y pair in 1D and 2D (1D's y axis
+        is the pair's second, its x axis the identity's or zero)."""
+        return 3 if self.dim == 3 else 2
+
+    @property
     def used_block(self):
         """Warp matrix type of a matrix's block on the used axes as stored per point: mat33 in 3D, the
         x–y block (mat22) in 1D and 2D, whose unused axes are the identity's."""
-        return _TYPES[self.precision][2 if self.dim == 3 else 5]
+        return _TYPES[self.precision][2 if self.stored_axes == 3 else 5]
 
     @property
     def used_vector(self):
         """Warp vector type of a vector zero along the unused axes as stored per point: vec3 in 3D, its
         x–y part (vec2) in 1D and 2D."""
-        return _TYPES[self.precision][1 if self.dim == 3 else 6]
+        return _TYPES[self.precision][1 if self.stored_axes == 3 else 6]
 
     @property
     def axis_mask(self) -> tuple[float, float, float]:

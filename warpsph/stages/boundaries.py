@@ -299,7 +299,7 @@ class Boundaries:
         """The body force and the water at rest (:func:`gravity_struct`)."""
         self.gravity.b = model.spec.vec3(*model.gravity)
         if model.pore is not None:
-            self.gravity.water_density = model.pore.material_water_density
+            self.gravity.water_density = model.pore.water.density
             self.gravity.water_table = model.spec.real(model.pore.water_table)
         """The planes as the kernels take them (their current positions and load factors)."""
         p = self.planes

@@ -42,7 +42,7 @@ def _kernels(spec: Spec):
     Fits = fits_struct(spec)
     fit_operator, _weights, _unused, smallest_eigenvalue = operator_functions(spec)
     used_vector_of = used_vectors(spec)[0]
-    axes = 3 if spec.dim == 3 else 2  # axes of the stored c, e and M⁻¹
+    axes = spec.stored_axes  # of the stored c, e and M⁻¹
 
     @wp.kernel(enable_backward=False, module="unique")
     def compute_fits(

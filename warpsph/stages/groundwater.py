@@ -44,7 +44,7 @@ class GroundwaterFlow:
         self.lists = solver.real_to_real
         self.reservoirs = reservoirs
         x = state.particle_q.numpy()[:n].astype(np.float64)  # the fixed skeleton's positions
-        rho_w = pw.material_water_density.numpy()[m.particle_material.numpy()[:n]]
+        rho_w = pw.water.density.numpy()[m.particle_material.numpy()[:n]]
         self.rho_g = rho_w * float(np.linalg.norm(pw.gravity))
         self.hydro = pw.hydrostatic(x, rho_w)
         """p_h at the particles [Pa], as the kernels take it (at their current positions)."""
@@ -235,7 +235,7 @@ class GroundwaterFlow:
         """Mask of the rows whose water content changes with their pressure (n dS/dp + S/Q > 0); the
         others (saturated soil of incompressible water) follow the rest at once, whatever the step."""
         m = self.model
-        inv_biot = m.pore.material_inv_biot.numpy()[m.particle_material.numpy()[: m.particle_count]]
+        inv_biot = m.pore.water.inv_biot.numpy()[m.particle_material.numpy()[: m.particle_count]]
         storage = self.capacity.numpy() + self.saturation.numpy() * inv_biot + self.coupling_storage.numpy()
         return storage > 0.0
 

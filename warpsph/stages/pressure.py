@@ -112,7 +112,7 @@ class PressureProjection:
         surfaces and sealed faces: LOW_PERMEABILITY_WEIGHT faded by the least draining material in use."""
         m = self.model
         materials = list(m.scene.materials.values())
-        permeability = m.pore.material_permeability.numpy()
+        permeability = m.pore.water.permeability.numpy()
         draining = min(permeability[i] * materials[i].density / m.scene.time_step
                        for i in np.unique(m.particle_material.numpy()[: m.particle_count]))
         return float(faded_by_draining(wp.float64(LOW_PERMEABILITY_WEIGHT), wp.float64(draining)))
@@ -277,7 +277,7 @@ class PressureProjection:
         if not surface.any() or limit == 0.0:
             return
         material = m.particle_material.numpy()[:n][surface]
-        ratio = m.pore.material_permeability.numpy()[material] * si.particle_density.numpy()[:n][surface] / dt
+        ratio = m.pore.water.permeability.numpy()[material] * si.particle_density.numpy()[:n][surface] / dt
         worst = int(np.argmin(ratio))
         if ratio[worst] < limit:
             name = list(m.scene.materials)[material[worst]]

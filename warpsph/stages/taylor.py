@@ -40,7 +40,7 @@ def taylor_kernels(spec: Spec):
     """``(half_step, full_step, virtual_continuity, motion_over_step)`` kernels for ``spec``."""
     column = ledger_columns(spec)  # the energy ledger's column of each channel
     real, vec3, mat33, block = spec.real, spec.vec3, spec.mat33, spec.used_block
-    used = 3 if spec.dim == 3 else 2  # axes of a stored M⁻¹ block
+    used = spec.stored_axes  # of a stored M⁻¹ block
     stored_stress = packed_stress_type(spec)  # the virtual points' half-step stress
     stored_zero = stored_stress()
     _fit, fit_weights, _unused, _eig = operator_functions(spec)
