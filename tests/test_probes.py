@@ -39,7 +39,8 @@ def test_reaction_areas_are_the_planes_tributary_areas():
     """On a plane's lattice each particle stands for Δx^(dim−1), half of it at an edge (where the points
     end, at a gap too), a quarter at a corner: the trapezoidal rule; the areas follow an in-plane affine
     deformation A exactly (each scaled by det A), and a plane with no in-plane axis (1D) has unit area."""
-    from warpsph.probes import lattice_neighbours, tributary_areas
+    from warpsph.lattice import lattice_neighbours
+    from warpsph.probes import tributary_areas
 
     dx = 0.25
     line = np.column_stack([np.array([0, 1, 2, 4, 5]) * dx, np.zeros(5), np.zeros(5)])  # a gap at 3 Δx

@@ -27,6 +27,7 @@ from warpsph.scene import AXES, EXTENT_TOLERANCE, Scene
 from warpsph.scene_reach import check_reach, plane_section
 from warpsph.sph.spec import Spec
 from warpsph.stages.ghost_layout import GHOST_MARGIN, ON_PLANE, plan_ghosts
+from warpsph.stages.plates import plate_layout
 from warpsph.stages.rigid import RIGID_LOAD_KINDS
 
 _BOUNDARY_KINDS = {"fixed": PLANE_FIXED, "slip": PLANE_SLIP, "symmetry": PLANE_SLIP, "free": PLANE_TRACTION,
@@ -34,16 +35,18 @@ _BOUNDARY_KINDS = {"fixed": PLANE_FIXED, "slip": PLANE_SLIP, "symmetry": PLANE_S
 
 
 def _planes(scene: Scene):
-    """One record per boundary plane: boundaries first, then traction loads."""
+    """One record per boundary plane: boundaries first, then traction and plate loads (the plate last)."""
     planes = []
     for b in scene.boundaries:
         vec = b.velocity if b.kind == "velocity" else (0.0, 0.0, 0.0)
         planes.append((b.name, b.axis_index, b.position, b.outward_sign, _BOUNDARY_KINDS[b.kind], vec, None,
-                       b.time_function, b.drainage))  # fmt: skip
+                       b.time_function, b.drainage, None))  # fmt: skip
     for ld in scene.loads:
-        if ld.kind == "traction":
-            planes.append((ld.name, ld.axis_index, ld.position, ld.outward_sign, PLANE_TRACTION, ld.traction,
-                           ld.extent, ld.time_function, ld.drainage))  # fmt: skip
+        if ld.kind in ("traction", "plate"):  # a plate's face is traction-free beside it
+            traction = ld.traction if ld.kind == "traction" else (0.0, 0.0, 0.0)
+            planes.append((ld.name, ld.axis_index, ld.position, ld.outward_sign, PLANE_TRACTION, traction,
+                           ld.extent if ld.kind == "traction" else None, ld.time_function, ld.drainage,
+                           ld if ld.kind == "plate" else None))  # fmt: skip
     return planes
 
 
@@ -145,6 +148,15 @@ def _check_drained_planes(scene: Scene, planes, on_plane: np.ndarray, points: np
                              "body, on the lattice of spacing dx")  # fmt: skip
 
 
+def _check_plates(scene: Scene, planes, plates) -> None:
+    """A plate needs particles under it: it holds them to its motion and passes its force through them."""
+    for p_idx, plane in enumerate(planes):
+        if plane[9] is not None and not np.any(plates.plate_of == p_idx):
+            raise SceneError(f"loads.{plane[0]}.extent",
+                             f"no particle lies under this plate on its face ({AXES[plane[1]]} = {plane[2]:g}); put "
+                             "it on a face of a body and give it an extent at least one dx wide there")  # fmt: skip
+
+
 def build(scene: Scene, device: str | None = None, precision: str | None = None,
           staged: bool = False) -> tuple[Model, State]:  # fmt: skip
     """Turn a validated ``scene`` into a Model and its initial State on ``device`` (default:
@@ -208,6 +220,9 @@ def build(scene: Scene, device: str | None = None, precision: str | None = None,
                 on_plane[a, counts[a]] = p_idx
                 counts[a] += 1
     constrained = np.nonzero(counts)[0].astype(np.int32)
+    plates = plate_layout([p[9] for p in planes], [p[1] for p in planes], on_plane[constrained], real_pts[constrained],
+                          density0[constrained] * cell_volume, dx, dim, EXTENT_TOLERANCE * dx)  # fmt: skip
+    _check_plates(scene, planes, plates)
     unreached = check_reach(scene, planes, on_plane, real_pts, real_body, body_points, staged)
     if unreached:
         scene = dataclasses.replace(scene, probes=[p for p in scene.probes if p.name not in unreached])
@@ -282,6 +297,7 @@ def build(scene: Scene, device: str | None = None, precision: str | None = None,
         region_virtual_load=arr(region_virtual_load, wp.int32),
         material_plasticity=plastic_materials(spec, mats, device) if spec.effects.plasticity else None,
         particle_ids=np.arange(n, dtype=np.int64),
+        plates=plates,
         pore=(build_pore_water(scene, [p[8] for p in planes], float(real_pts[:, 1].max()), vec3, grow, device)
               if pore else None),
     )

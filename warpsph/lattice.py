@@ -184,3 +184,20 @@ def _polygon_contains(vertices: np.ndarray, p: np.ndarray, tol: float) -> np.nda
     nearest = a + t[..., None] * ab
     dist2 = np.einsum("...i,...i->...", q - nearest, q - nearest)
     return inside | np.any(dist2 <= tol * tol, axis=1)
+
+
+def lattice_neighbours(x0: np.ndarray, dx: float, axes: list[int]) -> np.ndarray:
+    """(len(axes), 2, M) indices into ``x0`` (M,3) [m] of each point's lattice neighbours at −Δx and +Δx
+    along each of ``axes`` among the same points, −1 where there is none."""
+    out = np.full((len(axes), 2, len(x0)), -1, dtype=np.int64)
+    if not len(x0):
+        return out
+    codes = lattice_codes(x0, dx)
+    order = np.argsort(codes)
+    for k, axis in enumerate(axes):
+        for side, step in enumerate((-1, 1)):
+            wanted = codes + step * code_step(axis)
+            at = np.minimum(np.searchsorted(codes, wanted, sorter=order), len(codes) - 1)
+            found = codes[order[at]] == wanted
+            out[k, side] = np.where(found, order[at], -1)
+    return out

@@ -9,6 +9,7 @@ allocated (they stay ``None``).
 from __future__ import annotations
 
 from dataclasses import dataclass, field
+from typing import TYPE_CHECKING
 
 import numpy as np
 import warp as wp
@@ -17,8 +18,15 @@ from warpsph.pore_water import PoreWaterModel
 from warpsph.scene import Scene
 from warpsph.sph.spec import Spec
 
+if TYPE_CHECKING:
+    from warpsph.stages.plates import PlateLayout
+
 # Boundary plane kinds as stored in ``Model.plane_kind``.
 PLANE_FIXED, PLANE_SLIP, PLANE_TRACTION, PLANE_VELOCITY = 0, 1, 2, 3
+PLATE_NONE, PLATE_ROUGH, PLATE_SMOOTH = 0, 1, 2
+"""A plane's rigid plate: none, or its contact (docs/method.md, *Rigid plates*)."""
+PLATE_VELOCITY, PLATE_FORCE = 0, 1
+"""What drives a rigid plate: a prescribed velocity, or a total force."""
 
 
 @dataclass
@@ -111,6 +119,9 @@ class Model:
     particle_ids: np.ndarray = field(default_factory=lambda: np.zeros(0, dtype=np.int64))
     pore: PoreWaterModel | None = None
     """Hydraulic data, only with the pore_water effect."""
+    plates: PlateLayout | None = None
+    """The planes' rigid plates (:class:`~warpsph.stages.plates.PlateLayout`; every plane's contact
+    ``PLATE_NONE`` without them)."""
 
     @property
     def particle_total(self) -> int:
@@ -157,6 +168,8 @@ class State:
     """(N+G,) float64 excess pore pressure over hydrostatic [Pa, compression positive] (pore_water only)."""
     particle_plastic_strain: wp.array | None = None
     """(N+G,) accumulated equivalent plastic strain ε̄ = ∫√(⅔ d^vp:d^vp) dt [-] (plasticity only)."""
+    plate_velocity: wp.array | None = None
+    """(P,) vec3 velocity of each plane's rigid plate [m/s] (only with plates)."""
 
     @classmethod
     def allocate(cls, model: Model) -> "State":
@@ -172,6 +185,8 @@ class State:
             virtual_density=wp.zeros(m, dtype=s.real, device=dev) if two_set else None,
             particle_pore_pressure=wp.zeros(n, dtype=wp.float64, device=dev) if s.effects.pore_water else None,
             particle_plastic_strain=wp.zeros(n, dtype=s.real, device=dev) if s.effects.plasticity else None,
+            plate_velocity=(wp.zeros(model.plane_count, dtype=s.vec3, device=dev)
+                            if model.plates is not None and model.plates.count else None),
         )
 
     def arrays(self) -> dict[str, wp.array]:

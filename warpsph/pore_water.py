@@ -78,9 +78,14 @@ class PoreWaterModel:
         drainage = self.plane_drainage.numpy()
         x = m.particle_x0
         axes = m.plane_axis.numpy()
-        for a, planes in zip(m.constraint_particle.numpy(), m.constraint_planes.numpy().reshape(-1, 3)):
+        plates = m.plates
+        for a, planes, plate in zip(m.constraint_particle.numpy(), m.constraint_planes.numpy().reshape(-1, 3),
+                                    plates.plate_of):  # fmt: skip
             for p in planes[planes >= 0]:
-                if drainage[p] == 1 and self.planes[p].covers(x[a : a + 1], axes[p], EXTENT_TOLERANCE * m.dx)[0]:
+                drained = drainage[p] == 1 and self.planes[p].covers(x[a : a + 1], axes[p], EXTENT_TOLERANCE * m.dx)[0]
+                if p == plate:  # a plate's base drains or not, whatever its face does beside it
+                    drained = plates.base[p] == 1
+                if drained:
                     on[a], plane[a] = 1, p
         return on, plane
 

@@ -7,7 +7,7 @@ from __future__ import annotations
 import numpy as np
 
 from warpsph.fields import mean_stress, von_mises
-from warpsph.lattice import code_step, lattice_codes, used_axes
+from warpsph.lattice import lattice_neighbours, used_axes
 from warpsph.model import Model
 from warpsph.stages.rigid import RIGID_LOAD_KINDS
 
@@ -43,23 +43,6 @@ def total_stress(fields: dict[str, np.ndarray]) -> np.ndarray:
     if "pore_pressure" not in fields:
         return fields["stress"]
     return fields["stress"] - fields["pore_pressure"][:, None, None] * np.eye(3)
-
-
-def lattice_neighbours(x0: np.ndarray, dx: float, axes: list[int]) -> np.ndarray:
-    """(len(axes), 2, M) indices into ``x0`` (M,3) [m] of each point's lattice neighbours at −Δx and +Δx
-    along each of ``axes`` among the same points, −1 where there is none."""
-    out = np.full((len(axes), 2, len(x0)), -1, dtype=np.int64)
-    if not len(x0):
-        return out
-    codes = lattice_codes(x0, dx)
-    order = np.argsort(codes)
-    for k, axis in enumerate(axes):
-        for side, step in enumerate((-1, 1)):
-            wanted = codes + step * code_step(axis)
-            at = np.minimum(np.searchsorted(codes, wanted, sorter=order), len(codes) - 1)
-            found = codes[order[at]] == wanted
-            out[k, side] = np.where(found, order[at], -1)
-    return out
 
 
 def tributary_areas(x: np.ndarray, neighbours: np.ndarray, axes: list[int]) -> np.ndarray:

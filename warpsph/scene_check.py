@@ -49,6 +49,8 @@ PORE_WATER_FIELDS = ("pore_pressure", "darcy_velocity")
 PLASTICITY_FIELDS = ("plastic_strain",)
 """Probe and output fields that need ``effects.plasticity``."""
 MAX_PARTICLES = 2**31 - 1
+FACE_LOADS = ("traction", "plate")
+"""The load kinds that lie on a face (a boundary plane of their own)."""
 """A run indexes particles with 32-bit integers; a body spanning more lattice points is refused before
 its points are listed (a dx written in mm as metres would otherwise exhaust memory or time)."""
 
@@ -356,14 +358,14 @@ def _check_body(body: Body, key: str, scene: Scene) -> None:
 def _check_one_record_per_plane(boundaries: list, loads: list) -> None:
     """Two boundaries or traction loads on the same face would mirror its particles twice."""
     seen: dict = {}
-    planes = [("boundaries", b) for b in boundaries] + [("loads", ld) for ld in loads if ld.kind == "traction"]
+    planes = [("boundaries", b) for b in boundaries] + [("loads", ld) for ld in loads if ld.kind in FACE_LOADS]
     for section, item in planes:
         face = (item.axis, float(item.position), item.side)
         if face in seen:
             raise SceneError(f"{section}.{item.name}",
                              f"lies on the same face ({item.axis} = {item.position:g}, side {item.side}) as "
-                             f"{seen[face]}; a face takes one boundary or traction load (a load with an extent "
-                             "leaves the rest of its face traction-free)")  # fmt: skip
+                             f"{seen[face]}; a face takes one boundary, traction load or plate (a load or plate "
+                             "with an extent leaves the rest of its face traction-free)")  # fmt: skip
         seen[face] = f"{section}.{item.name}"
 
 
@@ -382,9 +384,11 @@ def _check_boundary(boundary: Boundary, key: str, scene: Scene) -> None:
 
 def _check_load(load: Load, key: str, scene: Scene) -> None:
     check_types(load, key)
-    check_choice(f"{key}.kind", load.kind, ("traction", "velocity", "force"))
+    check_choice(f"{key}.kind", load.kind, ("traction", "plate", "velocity", "force"))
     check_choice(f"{key}.contact", load.contact, ("rough", "smooth"))
-    if load.kind == "traction":
+    if load.kind == "plate":
+        _check_plate(load, key, scene)
+    if load.kind in FACE_LOADS:
         _check_face(load, key, scene.simulation.dim)
     elif load.contact == "smooth" and not any(load.velocity if load.kind == "velocity" else load.force):
         raise SceneError(f"{key}.contact", f'a "smooth" {load.kind} load needs a nonzero {load.kind} (its direction)')
@@ -395,11 +399,27 @@ def _check_load(load: Load, key: str, scene: Scene) -> None:
             _check_region(getattr(load, name), f"{key}.{name}")
     _check_time_function(load.time_function, f"{key}.time_function")
     _check_drainage(load.drainage, f"{key}.drainage", scene.effects)
-    if load.kind != "traction" and load.drainage.kind != "impermeable":
+    if load.kind not in FACE_LOADS and load.drainage.kind != "impermeable":
         raise SceneError(
             f"{key}.drainage.kind",
             f"must be \"impermeable\" for a {show(load.kind)} load (only faces drain), got {show(load.drainage.kind)}",
         )
+
+
+def _check_plate(load: Load, key: str, scene: Scene) -> None:
+    """A plate's drive, its base's drainage and what drives it."""
+    check_choice(f"{key}.drive", load.drive, ("force", "velocity"))
+    check_choice(f"{key}.base_drainage", load.base_drainage, ("impermeable", "drained"))
+    if load.base_drainage != "impermeable":
+        needs_pore_water(f"{key}.base_drainage", scene.effects, "")
+    other = "velocity" if load.drive == "force" else "force"
+    if any(getattr(load, other)):
+        raise SceneError(f"{key}.{other}", f'a plate with drive = "{load.drive}" takes {load.drive} only; '
+                         f'set drive = "{other}" to drive it by its {other}')  # fmt: skip
+    if load.region is not None or any(load.traction):
+        extra = "region" if load.region is not None else "traction"
+        raise SceneError(f"{key}.{extra}", "a plate lies on its face over extent = { min = [...], max = [...] }; it "
+                         f"takes no {extra}")  # fmt: skip
 
 
 def _check_drainage(drainage: Drainage, key: str, effects: Effects) -> None:

@@ -357,6 +357,12 @@ class Load(_OnPlane):
     ``velocity`` × f(t) [m/s] (a rigid piston or footing; make it thicker than the support 2h).
     kind "force": those points move as one rigid body in translation under ``force`` × f(t)
     [N/m in 2D, N in 3D], gravity and the rest of the body (a footing under a load).
+    kind "plate": a rigid plate (a footing) on the face ``axis`` = ``position`` on ``side``, over ``extent``
+    along it (none: the whole face), the rest of the face traction-free. ``drive`` "velocity" moves it at
+    ``velocity`` × f(t); "force" moves it so that it passes ``force`` × f(t) [N/m in 2D, N in 3D] into
+    the soil. ``contact`` "rough" holds the particles under it to its motion, "smooth" along its normal
+    only; its base is ``base_drainage`` ("impermeable" or "drained", pore water), its face beside it
+    ``drainage``. It translates without rotating (docs/method.md, *Rigid plates*).
     """
 
     name: str = "load"
@@ -372,6 +378,10 @@ class Load(_OnPlane):
     contact: str = "rough"
     """Rigid loads: "rough" (the region moves rigidly) or "smooth" (only along the drive direction;
     across it the region's points move freely, so the contact carries no friction)."""
+    drive: str = "force"
+    """A plate: "force" or "velocity"."""
+    base_drainage: str = "impermeable"
+    """A plate's base: "impermeable" or "drained" (pore water)."""
     time_function: TimeFunction = field(default_factory=TimeFunction)
     drainage: Drainage = field(default_factory=Drainage)
     """Pore-water condition of the loaded face (pore_water effect)."""

@@ -222,10 +222,11 @@ class Solver:
         if self.model.pore is not None and self._moving_reservoirs:
             self.model.pore.surface_water.level.assign(levels(self.model.pore.reservoirs, t))
         self.rigid.begin_step(si.particle_v, t, dt)
+        pressure = self._stress_pressure(si)
+        self._step_plates(si, so, pressure, dt)
         self.boundaries.move_planes(si.particle_q)
         if self.layout is not None:
             self.layout.update(si)
-        pressure = self._stress_pressure(si)
         self.boundaries.update_real_ghosts(si.particle_q, si.particle_v, si.particle_stress, si.particle_density,
                                            pressure)
         if si.particle_plastic_strain is not None:
@@ -235,6 +236,12 @@ class Solver:
             self.projection.update_ghosts(si.particle_q, pressure, homogeneous=False)
         self.boundaries.update_virtual_ghosts(si.virtual_q, self.virtual_v, self.virtual_stress, si.virtual_density,
                                               self.virtual_p)
+
+    def _step_plates(self, si: State, so: State, pressure, dt: float) -> None:
+        """The rigid plates' velocities over the step (none where ``si`` is ``so``: geometry alone)."""
+        if self.boundaries.plates is not None and si is not so:
+            damping = self.damping.alpha if self.damping is not None else 0.0
+            self.boundaries.plates.step(si, so, pressure, dt, damping)
 
     def _neighbours_two_set(self, si: State, so: State, t: float, dt: float) -> None:
         m = self.model
@@ -381,6 +388,7 @@ class Solver:
     def _ghosts_collocated(self, si: State, so: State, t: float, dt: float) -> None:
         self.boundaries.set_time(t)
         self.rigid.begin_step(si.particle_v, t, dt)
+        self._step_plates(si, so, None, dt)
         self.boundaries.move_planes(si.particle_q)
         if self.layout is not None:
             self.layout.update(si)

@@ -41,7 +41,7 @@ class Equilibrium(Calculation):
 
     def _applied_force_parts(self) -> tuple[float, list]:
         """What :meth:`applied_force` needs that a phase does not change: Σ m‖g‖, and each traction
-        plane's and force load's full resultant with its time function."""
+        plane's, force load's and force-driven plate's full resultant with its time function."""
         m = self.run.model
         weight = float(np.sum(m.particle_mass.numpy()[: m.particle_count])) * float(np.linalg.norm(m.gravity))
         counts = np.bincount(m.constraint_planes.numpy().reshape(-1, 3).ravel() + 1, minlength=m.plane_count + 1)
@@ -49,7 +49,7 @@ class Equilibrium(Calculation):
         loads = [(counts[p + 1] * m.dx ** (m.spec.dim - 1) * float(np.linalg.norm(vectors[p])), m.plane_functions[p])
                  for p in range(m.plane_count) if kinds[p] == PLANE_TRACTION]  # fmt: skip
         loads += [(float(np.linalg.norm(ld.force)), ld.time_function) for ld in self.run.phase_scene.loads
-                  if ld.kind == "force"]  # fmt: skip
+                  if ld.kind == "force" or (ld.kind == "plate" and ld.drive == "force")]  # fmt: skip
         return weight, loads
 
     def equilibrate(self, progress, first: int, output: bool = True, judge=None) -> tuple[bool, float]:

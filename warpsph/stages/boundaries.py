@@ -9,17 +9,21 @@ import numpy as np
 import warp as wp
 
 from warpsph.launching import launch
-from warpsph.model import PLANE_FIXED, PLANE_SLIP, PLANE_TRACTION, PLANE_VELOCITY, Model
+from warpsph.model import (PLANE_FIXED, PLANE_SLIP, PLANE_TRACTION, PLANE_VELOCITY, PLATE_NONE, PLATE_ROUGH,
+                           PLATE_VELOCITY, Model)
 from warpsph.physics.elastic import elastic_struct, strain_energy_function
 from warpsph.sph.packed_stress import as_stored, as_tensor
 from warpsph.sph.spec import Spec
 from warpsph.stages.energy import BOUNDARIES, ledger_columns
+from warpsph.stages.plates import Plates
 
 
 @functools.cache
 def plane_functions(spec: Spec):
-    """``(traction_here, drainage_here)``: a plane's load and drainage at a point of the plane."""
+    """``(traction_here, drainage_here, on_plate, plate_velocity)``: a plane's load, drainage and plate at
+    a point of the plane."""
     real, vec3 = spec.real, spec.vec3
+    Planes = planes_struct(spec)
 
     @wp.func
     def inside_extent(p: int, x: vec3, axis: int, lo: wp.array(dtype=vec3), hi: wp.array(dtype=vec3)):
@@ -31,6 +35,18 @@ def plane_functions(spec: Spec):
         return inside
 
     @wp.func
+    def on_plate(p: int, x: vec3, axis: int, planes: Planes):
+        """Whether a point that started at x lies under plane p's rigid plate (none: False)."""
+        return planes.plate_contact[p] != PLATE_NONE and inside_extent(p, x, axis, planes.plate_lo, planes.plate_hi)
+
+    @wp.func
+    def plate_velocity(p: int, planes: Planes):
+        """The velocity [m/s] of plane p's plate: prescribed × f(t), or its force balance's."""
+        if planes.plate_drive[p] == PLATE_VELOCITY:
+            return planes.plate_vector[p] * planes.factor[p]
+        return planes.plate_velocity[p]
+
+    @wp.func
     def traction_here(p: int, x: vec3, axis: int, vector: wp.array(dtype=vec3), lo: wp.array(dtype=vec3),
                       hi: wp.array(dtype=vec3), factor: wp.array(dtype=real)):  # fmt: skip
         """Traction t̄ f(t) of plane p at a point that started at x, zero outside the plane's extent."""
@@ -39,24 +55,27 @@ def plane_functions(spec: Spec):
         return vec3(real(0.0), real(0.0), real(0.0))
 
     @wp.func
-    def drainage_here(p: int, x: vec3, axis: int, drainage: wp.array(dtype=wp.int32), lo: wp.array(dtype=vec3),
-                      hi: wp.array(dtype=vec3)):  # fmt: skip
-        """Drainage kind of plane p at a point that started at x (0, impermeable, outside its extent)."""
-        if inside_extent(p, x, axis, lo, hi):
-            return drainage[p]
+    def drainage_here(p: int, x: vec3, axis: int, planes: Planes):
+        """Drainage kind of plane p at a point that started at x (0, impermeable, outside its extent;
+        under a plate, the plate's base)."""
+        if on_plate(p, x, axis, planes):
+            return planes.plate_base[p]
+        if inside_extent(p, x, axis, planes.drained_lo, planes.drained_hi):
+            return planes.drainage[p]
         return 0
 
-    return traction_here, drainage_here
+    return traction_here, drainage_here, on_plate, plate_velocity
 
 
 @functools.cache
 def planes_struct(spec: Spec):
     """The ``Planes`` @wp.struct of ``spec``'s precision: the boundary planes as the ghost and prescription
     kernels take them, (P,) each: axis, current position [m], outward sign, kind, prescribed vector (a
-    velocity [m/s] or a traction [Pa]), extent lo and hi [m], the load factor f(t) of the time, and with
-    pore water the drainage kind (0 impermeable, 1 drained, 2 inflow), its extent drained_lo and
-    drained_hi [m], and the drained pressure [Pa], head [m] (NaN: none) and inflow [m/s] at the time
-    (:meth:`Boundaries.with_drainage`)."""
+    velocity [m/s] or a traction [Pa]), extent lo and hi [m], the load factor f(t) of the time, the rigid
+    plate on the plane (:mod:`warpsph.stages.plates`: its contact, drive, prescribed velocity [m/s] or
+    force [N/m, N], extent, base drainage and current velocity [m/s]), and with pore water the drainage
+    kind (0 impermeable, 1 drained, 2 inflow), its extent drained_lo and drained_hi [m], and the drained
+    pressure [Pa], head [m] (NaN: none) and inflow [m/s] at the time (:meth:`Boundaries.with_drainage`)."""
     real, vec3 = spec.real, spec.vec3
 
     @wp.struct
@@ -69,6 +88,13 @@ def planes_struct(spec: Spec):
         lo: wp.array(dtype=vec3)
         hi: wp.array(dtype=vec3)
         factor: wp.array(dtype=real)
+        plate_contact: wp.array(dtype=wp.int32)
+        plate_drive: wp.array(dtype=wp.int32)
+        plate_vector: wp.array(dtype=vec3)
+        plate_lo: wp.array(dtype=vec3)
+        plate_hi: wp.array(dtype=vec3)
+        plate_base: wp.array(dtype=wp.int32)
+        plate_velocity: wp.array(dtype=vec3)
         drainage: wp.array(dtype=wp.int32)
         drained_lo: wp.array(dtype=vec3)
         drained_hi: wp.array(dtype=vec3)
@@ -96,18 +122,10 @@ def gravity_struct(spec: Spec):
 
 
 @functools.cache
-def _kernels(spec: Spec, stress_type=None):
-    """The planes' kernels; ``update_ghosts`` for stresses stored as ``stress_type`` (default mat33; the
-    virtual points' scratch is :mod:`warpsph.sph.packed_stress`'s)."""
-    column = ledger_columns(spec)  # the energy ledger's column of each channel
-    real, vec3, mat33 = spec.real, spec.vec3, spec.mat33
-    stress_type = stress_type or mat33
-    two = real(2.0)
-    pore_water = spec.effects.pore_water
-    traction_here, drainage_here = plane_functions(spec)
-    psi = strain_energy_function(spec)
-    ElasticMaterials = elastic_struct(spec)
-    Planes = planes_struct(spec)
+def water_functions(spec: Spec):
+    """``(pore_pressure_at, Gravity)``: a point's total pore pressure and the struct it reads the water at
+    rest from (:func:`gravity_struct`)."""
+    real, vec3 = spec.real, spec.vec3
     Gravity = gravity_struct(spec)
 
     @wp.func
@@ -116,6 +134,24 @@ def _kernels(spec: Spec, stress_type=None):
         """Total pore pressure p_excess + ρ_w b·(x − x_wt) of point i at x [Pa] (pore water only)."""
         shifted = vec3(x[0], x[1] - gravity.water_table, x[2])
         return real(pore[i]) + real(gravity.water_density[material[i]]) * wp.dot(gravity.b, shifted)
+
+    return pore_pressure_at, Gravity
+
+
+@functools.cache
+def _kernels(spec: Spec, stress_type=None):
+    """The planes' kernels; ``update_ghosts`` for stresses stored as ``stress_type`` (default mat33; the
+    virtual points' scratch is :mod:`warpsph.sph.packed_stress`'s)."""
+    column = ledger_columns(spec)  # the energy ledger's column of each channel
+    real, vec3, mat33 = spec.real, spec.vec3, spec.mat33
+    stress_type = stress_type or mat33
+    two = real(2.0)
+    pore_water = spec.effects.pore_water
+    traction_here, drainage_here, on_plate, plate_velocity = plane_functions(spec)
+    psi = strain_energy_function(spec)
+    ElasticMaterials = elastic_struct(spec)
+    Planes = planes_struct(spec)
+    pore_pressure_at, Gravity = water_functions(spec)
 
     @wp.kernel(enable_backward=False, module="unique")
     def update_ghosts(
@@ -148,19 +184,26 @@ def _kernels(spec: Spec, stress_type=None):
                 kind = planes.kind[p]
                 depth = planes.sign[p] * (planes.position[p] - x[m])
                 x[m] = two * planes.position[p] - x[m]
-                if kind != PLANE_TRACTION:
+                plate = kind == PLANE_TRACTION and on_plate(p, origin[src], m, planes)
+                if kind != PLANE_TRACTION or plate:
                     # at rest against a wall ∂σ_nn/∂n = −ρ b·n: continue σ_nn linearly, not evenly
                     s[m, m] = s[m, m] - two * depth * weight * planes.sign[p] * gravity.b[m]
                 if kind == PLANE_FIXED:
                     u = -u
                 elif kind == PLANE_VELOCITY:
                     u = two * planes.vector[p] * planes.factor[p] - u
-                elif kind == PLANE_SLIP:
-                    u[m] = -u[m]
+                elif kind == PLANE_SLIP or (plate and planes.plate_contact[p] != PLATE_ROUGH):
+                    # a slip plane, or a smooth plate: the normal velocity mirrored about the plane's, no shear
+                    u_n = real(0.0)
+                    if plate:
+                        u_n = plate_velocity(p, planes)[m]
+                    u[m] = two * u_n - u[m]
                     for k in range(3):
                         if k != m:
                             s[m, k] = -s[m, k]
                             s[k, m] = -s[k, m]
+                elif plate:
+                    u = two * plate_velocity(p, planes) - u
                 else:
                     # the load at the source's own point: a ghost of a ghost across a symmetry
                     # plane sees the mirror image of the load, not the load at its mirrored place
@@ -174,7 +217,7 @@ def _kernels(spec: Spec, stress_type=None):
                         # an impermeable face carries the load with the pore water: σ′n = t̄ + p n; a
                         # drained face is in contact with water at its own pressure, so σ′n = t̄
                         p_face = real(0.0)
-                        if drainage_here(p, origin[src], m, planes.drainage, planes.drained_lo, planes.drained_hi) != 1:
+                        if drainage_here(p, origin[src], m, planes) != 1:
                             p_face = pore_pressure_at(src, q[src], pore, material, gravity)
                         s[m, m] = s[m, m] + two * p_face
         q[n_owned + g] = x
@@ -217,6 +260,16 @@ def _kernels(spec: Spec, stress_type=None):
                     u = planes.vector[p] * planes.factor[p]
                 elif kind == PLANE_SLIP:
                     u[m] = real(0.0)
+                elif on_plate(p, origin[a], m, planes):
+                    plate_u = plate_velocity(p, planes)
+                    if planes.plate_contact[p] == PLATE_ROUGH:
+                        u = plate_u
+                    else:
+                        u[m] = plate_u[m]
+                        for k in range(3):
+                            if k != m:
+                                s[m, k] = real(0.0)
+                                s[k, m] = real(0.0)
                 else:
                     t = traction_here(p, origin[a], m, planes.vector, planes.lo, planes.hi, planes.factor)
                     for k in range(3):
@@ -224,7 +277,7 @@ def _kernels(spec: Spec, stress_type=None):
                         s[k, m] = s[m, k]
                     if wp.static(pore_water):
                         # as for the ghosts: only an impermeable face shares its load
-                        if drainage_here(p, origin[a], m, planes.drainage, planes.drained_lo, planes.drained_hi) != 1:
+                        if drainage_here(p, origin[a], m, planes) != 1:
                             s[m, m] = s[m, m] + pore_pressure_at(a, q[a], pore, material, gravity)
         mat = material[a]
         given = real(0.5) * mass[a] * (wp.dot(u, u) - wp.dot(v[a], v[a]))
@@ -238,16 +291,19 @@ def _kernels(spec: Spec, stress_type=None):
     def sum_plane_positions(
         particle: wp.array(dtype=wp.int32),
         planes_of: wp.array(dtype=wp.vec3i),
-        plane_axis: wp.array(dtype=wp.int32),
+        plate_of: wp.array(dtype=wp.int32),
+        planes: Planes,
         q: wp.array(dtype=vec3),
         sums: wp.array(dtype=real),
     ):
+        """sums[p] += the coordinate along plane p's axis of each particle lying on it (on a plane with a
+        plate, those the plate holds: the plane is the plate's base)."""
         i = wp.tid()
-        planes = planes_of[i]
+        on = planes_of[i]
         for c in range(3):
-            p = planes[c]
-            if p >= 0:
-                wp.atomic_add(sums, p, q[particle[i]][plane_axis[p]])
+            p = on[c]
+            if p >= 0 and (planes.plate_contact[p] == PLATE_NONE or plate_of[i] == p):
+                wp.atomic_add(sums, p, q[particle[i]][planes.axis[p]])
 
     @wp.kernel(enable_backward=False, module="unique")
     def move_planes(
@@ -290,10 +346,13 @@ class Boundaries:
         """(P,) current plane coordinates [m]."""
         self._plane_sums = wp.zeros_like(model.plane_position)
         counts = np.zeros(model.plane_count)
-        for planes in model.constraint_planes.numpy().reshape(-1, 3):
+        plates = model.plates
+        for planes, plate in zip(model.constraint_planes.numpy().reshape(-1, 3), plates.plate_of):
             for p in planes[planes >= 0]:
-                counts[p] += 1
+                counts[p] += plates.contact[p] == PLATE_NONE or plate == p
         self._on_plane_count = wp.array(counts, dtype=real, device=model.device)
+        self.plate_of = wp.array(plates.plate_of, dtype=wp.int32, device=model.device)
+        """(C,) the plane whose plate holds each particle lying on a plane, −1 none."""
         self.planes = planes_struct(model.spec)()
         self.gravity = gravity_struct(model.spec)()
         """The body force and the water at rest (:func:`gravity_struct`)."""
@@ -306,6 +365,16 @@ class Boundaries:
         p.axis, p.position, p.sign, p.kind = model.plane_axis, self.plane_position, model.plane_sign, model.plane_kind
         p.vector, p.lo, p.hi = model.plane_vector, model.plane_extent_lo, model.plane_extent_hi
         p.factor = self.plane_factor
+        arr = functools.partial(wp.array, device=model.device)
+        npr = np.float64 if model.spec.precision == "float64" else np.float32
+        p.plate_contact, p.plate_drive = arr(plates.contact, dtype=wp.int32), arr(plates.drive, dtype=wp.int32)
+        p.plate_vector = arr(plates.vector.astype(npr), dtype=model.spec.vec3)
+        p.plate_lo = arr(plates.lo.astype(npr), dtype=model.spec.vec3)
+        p.plate_hi = arr(plates.hi.astype(npr), dtype=model.spec.vec3)
+        p.plate_base = arr(plates.base, dtype=wp.int32)
+        p.plate_velocity = wp.zeros(max(model.plane_count, 1), dtype=model.spec.vec3, device=model.device)
+        self.plates = Plates(model, self) if plates.count else None
+        """The rigid plates' force balance (none without plates)."""
         if model.pore is not None:
             p.drainage, p.drained_lo, p.drained_hi = (model.pore.plane_drainage, model.pore.plane_drained_lo,
                                                       model.pore.plane_drained_hi)  # fmt: skip
@@ -335,7 +404,8 @@ class Boundaries:
         *_, sum_positions, move = _kernels(m.spec)
         self._plane_sums.zero_()
         launch(sum_positions, m.constraint_count,
-               [m.constraint_particle, m.constraint_planes, m.plane_axis, q, self._plane_sums], m.device)
+               [m.constraint_particle, m.constraint_planes, self.plate_of, self.planes, q, self._plane_sums],
+               m.device)  # fmt: skip
         launch(move, m.plane_count,
                [m.plane_kind, m.plane_position, self._on_plane_count, self._plane_sums, self.plane_position],
                m.device)  # fmt: skip

@@ -56,11 +56,12 @@ def damping_kernel(spec: Spec):
 
 
 def velocity_prescribed(model: Model) -> np.ndarray:
-    """(N,) bool: owned particles on a velocity plane or in a rigid "velocity" load's region."""
+    """(N,) bool: owned particles on a velocity plane, under a rigid plate or in a rigid "velocity" load's region."""
     out = np.zeros(model.particle_count, dtype=bool)
     kinds = model.plane_kind.numpy()
     planes = model.constraint_planes.numpy().reshape(-1, 3)
     on_velocity_plane = np.any((planes >= 0) & (kinds[np.maximum(planes, 0)] == PLANE_VELOCITY), axis=1)
+    on_velocity_plane |= model.plates.plate_of >= 0  # a plate's particles move with it (its force balance damped)
     out[model.constraint_particle.numpy()[on_velocity_plane]] = True
     rigid = [ld for ld in model.scene.loads if ld.kind in ("velocity", "force")]
     velocity_loads = np.array([ld.kind == "velocity" for ld in rigid] or [False])

@@ -37,7 +37,7 @@ def groundwater_kernels(spec: Spec):
     f64 = wp.float64
     zero = f64(0.0)
     _W, grad_W = smoothing_functions(spec)
-    _traction, drainage_here = plane_functions(spec)
+    drainage_here = plane_functions(spec)[1]
     ghost_affine = pressure_kernels(spec)["ghost_affine"]
     Planes = planes_struct(spec)
     Water = water_struct(vec3)
@@ -94,7 +94,7 @@ def groundwater_kernels(spec: Spec):
                 pl = chain[i]
                 if pl >= 0 and plane < 0:
                     axis = planes.axis[pl]
-                    if drainage_here(pl, where, axis, planes.drainage, planes.drained_lo, planes.drained_hi) != 0:
+                    if drainage_here(pl, where, axis, planes) != 0:
                         plane = pl
         k_a = water.permeability[material[a]]
         k_j = water.permeability[mat_j]

@@ -137,8 +137,10 @@ class PressureProjection:
         m = self.model
         image = np.ones(m.particle_count)
         kinds = m.plane_kind.numpy()
-        for a, planes in zip(m.constraint_particle.numpy(), m.constraint_planes.numpy().reshape(-1, 3)):
-            if on_drained[a] == 0 and np.any(kinds[planes[planes >= 0]] == PLANE_TRACTION):
+        held = m.plates.plate_of  # a plate holds its particles as a wall does: not a traction plane there
+        for a, planes, plate in zip(m.constraint_particle.numpy(), m.constraint_planes.numpy().reshape(-1, 3), held):
+            traction = [p for p in planes[planes >= 0] if kinds[p] == PLANE_TRACTION and p != plate]
+            if on_drained[a] == 0 and traction:
                 image[a] = 0.0
         return image
 

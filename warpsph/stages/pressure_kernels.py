@@ -107,7 +107,7 @@ def pressure_kernels(spec: Spec):
     add_to_fit, finish_fit, _inv, _unused = fit_parts(spec)
 
     _W, grad_W = smoothing_functions(spec)
-    _traction, drainage_here = plane_functions(spec)
+    _traction, drainage_here, on_plate, _plate_velocity = plane_functions(spec)
     Planes = planes_struct(spec)
     Fits = fits_struct(spec)
     Water = water_struct(vec3)
@@ -147,8 +147,8 @@ def pressure_kernels(spec: Spec):
             p = on[i]
             if p >= 0:
                 m = planes.axis[p]
-                kind = drainage_here(p, where, m, planes.drainage, planes.drained_lo, planes.drained_hi)
-                traction = planes.kind[p] == PLANE_TRACTION
+                kind = drainage_here(p, where, m, planes)
+                traction = planes.kind[p] == PLANE_TRACTION and not on_plate(p, where, m, planes)
                 if kind == 1:
                     s = -s
                     c = -c

@@ -1,0 +1,137 @@
+"""Rigid plates as boundaries (loads of kind "plate", ``stages/plates.py``): a plate on a face, driven by a
+total force, passes that force into the soil, a smooth one lets the soil spread under it, and an
+impermeable one on saturated soil draws no suction.
+
+Closed forms (no gravity, E_oed = λ + 2G):
+
+- a 1D column of height H on a fixed base under a plate's force P [N/m²]: settlement P H / E_oed and a
+  base reaction P;
+- a plane-strain block on a slip base and a symmetry plane, its far side free, under a smooth plate over
+  its whole top: uniaxial stress σ_yy = −P in plane strain, settlement P H (1 − ν²)/E and the free side's
+  displacement P ν (1 + ν) A / E at every height.
+"""
+
+import math
+
+import numpy as np
+import pytest
+
+from warpsph.errors import SceneError
+from warpsph.io import load_results
+from warpsph.runner import Run
+from warpsph.scene import (Body, Boundary, Drainage, Effects, Load, Material, Output, Phase, Probe, Region, Scene,
+                           Simulation, TimeFunction)
+
+H, E, NU, DENSITY, P = 1.0, 10e6, 0.3, 2000.0, 50e3
+E_OED = E * (1 - NU) / ((1 + NU) * (1 - 2 * NU))
+TRANSIT = H / math.sqrt(E_OED / DENSITY)
+SOIL = Material(name="soil", density=DENSITY, youngs_modulus=E, poisson_ratio=NU)
+
+
+def series(scene: Scene, out) -> dict:
+    Run(scene, out).run()
+    results = load_results(out / "results.h5")
+    return {p.name: results.series(p.name) for p in scene.probes}
+
+
+def plate(**kw) -> Load:
+    return Load(name="plate", kind="plate", axis="y", side="max", position=H, **kw)
+
+
+def test_force_driven_plate_on_a_column_passes_its_force(tmp_path):
+    """1D: the base reaction and the settlement, means over the hold after a ramp of 20 transits."""
+    end = 60 * TRANSIT
+    scene = Scene(
+        simulation=Simulation(dim=1, dx=0.05, end_time=end), materials={"soil": SOIL},
+        bodies=[Body(name="column", material="soil", min=(0.0, 0.0, 0.0), max=(0.0, H, 0.0))],
+        boundaries=[Boundary(name="base", kind="fixed", axis="y", position=0.0, side="min")],
+        loads=[plate(force=(0.0, -P, 0.0), time_function=TimeFunction(kind="ramp", duration=20 * TRANSIT))],
+        probes=[Probe(name="base", kind="reaction", field="y", boundary="base"),
+                Probe(name="top", kind="point", field="displacement_y", point=(0.0, H, 0.0))],
+        output=Output(frame_interval=end, probe_every=10, usd=False),
+    ).validate()  # fmt: skip
+    out = series(scene, tmp_path)
+    hold = {name: float(np.mean(v[t > end / 2])) for name, (t, v) in out.items()}
+    print(f"\nbase {hold['base']:.1f} N/m² for {P:.0f}; settlement {-hold['top'] * 1e3:.4f} mm for "
+          f"{P * H / E_OED * 1e3:.4f}")  # fmt: skip
+    assert hold["base"] == pytest.approx(P, rel=0.01)
+    assert -hold["top"] == pytest.approx(P * H / E_OED, rel=0.01)
+
+
+def test_smooth_plate_lets_the_block_spread_under_it(tmp_path):
+    """2D equilibrium: the base takes the plate's force within 1 %; the top row moves sideways as the
+    mid-plane does (within 2 %), both as the closed form; the settlement within 1 %."""
+    scene = Scene(
+        simulation=Simulation(dim=2, dx=0.1, end_time=1.0), materials={"soil": SOIL},
+        bodies=[Body(name="block", material="soil", min=(0.0, 0.0, 0.0), max=(1.0, H, 0.0))],
+        boundaries=[Boundary(name="base", kind="slip", axis="y", position=0.0, side="min"),
+                    Boundary(name="axis", kind="symmetry", axis="x", position=0.0, side="min")],
+        loads=[plate(force=(0.0, -P, 0.0), contact="smooth")],
+        phases=[Phase(name="load", kind="equilibrium", tolerance=1e-6)],
+        probes=[Probe(name="base", kind="reaction", field="y", boundary="base"),
+                Probe(name="top_x", kind="point", field="displacement_x", point=(1.0, H, 0.0)),
+                Probe(name="mid_x", kind="point", field="displacement_x", point=(1.0, H / 2, 0.0)),
+                Probe(name="top_y", kind="point", field="displacement_y", point=(0.0, H, 0.0))],
+        output=Output(probe_every=50, usd=False),
+    ).validate()  # fmt: skip
+    last = {name: float(v[-1]) for name, (t, v) in series(scene, tmp_path).items()}
+    side = P * NU * (1 + NU) / E
+    settlement = P * H * (1 - NU**2) / E
+    print(f"\nbase {last['base']:.1f} N/m; side top {last['top_x'] * 1e3:.5f}, mid {last['mid_x'] * 1e3:.5f}, closed "
+          f"form {side * 1e3:.5f} mm; settlement {-last['top_y'] * 1e3:.5f} for {settlement * 1e3:.5f} mm")  # fmt: skip
+    assert last["base"] == pytest.approx(P, rel=0.01)
+    assert last["top_x"] == pytest.approx(last["mid_x"], rel=0.02)
+    assert last["mid_x"] == pytest.approx(side, rel=0.01)
+    assert -last["top_y"] == pytest.approx(settlement, rel=0.01)
+
+
+def test_impermeable_plate_on_saturated_soil_draws_no_suction(tmp_path):
+    """Mandel's geometry (a smooth impermeable plate over the top of a saturated block, its far side
+    free and drained), loaded over 0.05 s and held to 0.3 s: no pore pressure below −1 % of the
+    plate's stress, and the base takes its force (mean over the hold, where the block rings) within 1 %."""
+    soil = Material("soil", density=1700.0, youngs_modulus=30e6, poisson_ratio=0.2, porosity=0.3, grain_density=2000.0,
+                    water_bulk_modulus=100e6, hydraulic_conductivity=1e-5)  # fmt: skip
+    end = 0.3
+    scene = Scene(
+        simulation=Simulation(dim=2, dx=0.1, end_time=end), effects=Effects(pore_water=True), materials={"soil": soil},
+        bodies=[Body("block", "soil", min=(0, 0, 0), max=(1.0, H, 0))],
+        boundaries=[Boundary("base", "slip", "y", 0.0, "min"), Boundary("axis", "symmetry", "x", 0.0, "min"),
+                    Boundary("side", "free", "x", 1.0, "max", drainage=Drainage("drained"))],
+        loads=[plate(force=(0, -P, 0), contact="smooth", time_function=TimeFunction("ramp", duration=0.05))],
+        probes=[Probe(name="base", kind="reaction", field="y", boundary="base"),
+                Probe(name="lowest", kind="minimum", field="pore_pressure")],
+        output=Output(frame_interval=end, probe_every=20, usd=False),
+    ).validate()  # fmt: skip
+    out = series(scene, tmp_path)
+    t, base = out["base"]
+    lowest = float(np.min(out["lowest"][1]))
+    held = float(np.mean(base[t > 0.15]))
+    print(f"\nlowest pore pressure {lowest:.1f} Pa; base {held:.1f} N/m for {P:.0f}")
+    assert lowest >= -0.01 * P
+    assert held == pytest.approx(P, rel=0.01)
+
+
+def column_with(load: Load, effects: Effects = Effects()) -> Scene:
+    return Scene(simulation=Simulation(dim=2, dx=0.1, end_time=0.01), effects=effects, materials={"soil": SOIL},
+                 bodies=[Body(name="block", material="soil", min=(0.0, 0.0, 0.0), max=(1.0, H, 0.0))],
+                 boundaries=[Boundary(name="base", kind="fixed", axis="y", position=0.0, side="min")],
+                 loads=[load]).validate()  # fmt: skip
+
+
+@pytest.mark.parametrize("load, key", [
+    (plate(drive="force", velocity=(0, -0.01, 0)), "loads.plate.velocity"),
+    (plate(drive="push"), "loads.plate.drive"),
+    (plate(base_drainage="drained"), "loads.plate.base_drainage"),
+    (plate(region=Region(min=(0, 0, 0), max=(1, 1, 0))), "loads.plate.region"),
+])  # fmt: skip
+def test_bad_plates_are_refused_at_their_key(load, key):
+    with pytest.raises(SceneError) as error:
+        column_with(load)
+    assert error.value.key == key
+
+
+def test_a_plate_under_which_no_particle_lies_is_refused(tmp_path):
+    scene = column_with(plate(force=(0, -P, 0), extent=Region(min=(2.0, H, 0), max=(3.0, H, 0))))
+    with pytest.raises(SceneError) as error:
+        Run(scene, tmp_path).run()
+    assert error.value.key == "loads.plate.extent"
