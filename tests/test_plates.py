@@ -28,10 +28,11 @@ TRANSIT = H / math.sqrt(E_OED / DENSITY)
 SOIL = Material(name="soil", density=DENSITY, youngs_modulus=E, poisson_ratio=NU)
 
 
-def series(scene: Scene, out) -> dict:
+def series(scene: Scene, out, extra=()) -> dict:
+    """The probes' series of a run of ``scene``, and the ``extra`` series named."""
     Run(scene, out).run()
     results = load_results(out / "results.h5")
-    return {p.name: results.series(p.name) for p in scene.probes}
+    return {name: results.series(name) for name in [*(p.name for p in scene.probes), *extra]}
 
 
 def plate(**kw) -> Load:
@@ -50,12 +51,15 @@ def test_force_driven_plate_on_a_column_passes_its_force(tmp_path):
                 Probe(name="top", kind="point", field="displacement_y", point=(0.0, H, 0.0))],
         output=Output(frame_interval=end, probe_every=10, usd=False),
     ).validate()  # fmt: skip
-    out = series(scene, tmp_path)
+    out = series(scene, tmp_path, ["plate_force_y", "plate_displacement_y"])
     hold = {name: float(np.mean(v[t > end / 2])) for name, (t, v) in out.items()}
     print(f"\nbase {hold['base']:.1f} N/m² for {P:.0f}; settlement {-hold['top'] * 1e3:.4f} mm for "
-          f"{P * H / E_OED * 1e3:.4f}")  # fmt: skip
+          f"{P * H / E_OED * 1e3:.4f}; the plate's series: force {hold['plate_force_y']:.1f}, displacement "
+          f"{hold['plate_displacement_y'] * 1e3:.4f} mm")  # fmt: skip
     assert hold["base"] == pytest.approx(P, rel=0.01)
     assert -hold["top"] == pytest.approx(P * H / E_OED, rel=0.01)
+    assert hold["plate_force_y"] == pytest.approx(-P, rel=0.01)
+    assert hold["plate_displacement_y"] == pytest.approx(hold["top"], rel=1e-6)
 
 
 def test_smooth_plate_lets_the_block_spread_under_it(tmp_path):

@@ -319,6 +319,8 @@ class Run:
 
     # -- output -----------------------------------------------------------------------------------
     def _sample_probes(self, fields=None) -> None:
+        for name, value in self.solver.plate_series(self.state).items():
+            self.results.append_series(name, self.step_index, self.time, value)
         if not self.probes.probes:
             return
         self._check()  # nothing is written from a step the guards marked

@@ -355,6 +355,12 @@ class Solver:
         before = self._stress_pressure(si)
         self.energy.add_boundary_work(si, so, before, before if self.config.fixed_pore_pressure else so.particle_pore_pressure)
 
+    def plate_series(self, state: State) -> dict[str, float]:
+        """Each rigid plate's force into the soil [N/m in 2D, N in 3D] and displacement [m] in ``state``, by
+        series name (``<plate>_force_y``, ``<plate>_displacement_y``, …); none without plates."""
+        plates = self.boundaries.plates
+        return {} if plates is None else plates.series(state, self._stress_pressure(state))
+
     def _stress_pressure(self, si: State):
         """The pore pressure the step's total stress carries: the state's, or with fixed pore pressures
         the excess of Bishop's χ p_w, computed from the first state stepped (the pressures do not change)."""

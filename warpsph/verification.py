@@ -238,3 +238,64 @@ def gardner_infiltration(z, t: float, length: float, alpha: float, storage: floa
         decay = math.exp(-(lam**2 + 0.25 * alpha**2) * t / c)
         out = out + coefficient * decay * np.exp(-0.5 * alpha * z) * np.sin(lam * z)
     return out
+
+
+class Mandel(NamedTuple):
+    """Constants of Mandel's problem for a material (incompressible grains aside, Biot's α = 1)."""
+
+    skempton: float
+    """B = Q/(K + Q) [-]."""
+    nu: float
+    nu_u: float
+    """Drained and undrained Poisson ratios [-]."""
+    shear: float
+    """G [Pa]."""
+    c: float
+    """Consolidation coefficient 2κB²G(1 − ν)(1 + ν_u)²/[9(1 − ν_u)(ν_u − ν)] [m²/s], κ = k_h/γ_w."""
+
+
+def mandel_constants(material) -> Mandel:
+    """:class:`Mandel` of ``material`` (a :class:`~warpsph.scene.Material` with pore water)."""
+    bulk, shear, q = material.lame_lambda + 2.0 * material.shear_modulus / 3.0, material.shear_modulus, material.biot_modulus
+    undrained = bulk + q
+    nu, nu_u = material.poisson_ratio, (3.0 * undrained - 2.0 * shear) / (2.0 * (3.0 * undrained + shear))
+    b = q / undrained
+    c = 2.0 * material.permeability * b**2 * shear * (1 - nu) * (1 + nu_u) ** 2 / (9.0 * (1 - nu_u) * (nu_u - nu))
+    return Mandel(b, nu, nu_u, shear, c)
+
+
+def _mandel_roots(m: Mandel, terms: int) -> np.ndarray:
+    """The first ``terms`` roots α_n of tan α = (1 − ν)/(ν_u − ν) α, one in each ((n − 1)π, (n − ½)π)."""
+    from scipy.optimize import brentq
+
+    slope = (1.0 - m.nu) / (m.nu_u - m.nu)
+    gap = 1e-12
+    return np.array([brentq(lambda a: math.tan(a) - slope * a, (n * math.pi) + gap, (n + 0.5) * math.pi - gap)
+                     for n in range(terms)])  # fmt: skip
+
+
+def mandel_pressure(x, half_width: float, force: float, t: float, m: Mandel, terms: int = 200) -> np.ndarray:
+    """Pore pressure p(x, t) [Pa] of a specimen 2a wide (a = ``half_width``) under a force 2F
+    (F = ``force`` [N/m], on the half-width) applied at t = 0, at distances ``x`` from its centre (Cheng
+    & Detournay 1988); p(x, 0⁺) = F B (1 + ν_u)/(3a)."""
+    x = np.asarray(x, dtype=float)
+    a = half_width
+    if t <= 0.0:
+        return np.full_like(x, force * m.skempton * (1 + m.nu_u) / (3.0 * a))
+    alpha = _mandel_roots(m, terms)
+    sin, cos = np.sin(alpha), np.cos(alpha)
+    weight = sin / (alpha - sin * cos) * np.exp(-(alpha**2) * m.c * t / a**2)
+    modes = np.cos(np.outer(x / a, alpha)) - cos
+    return 2.0 * force * m.skempton * (1 + m.nu_u) / (3.0 * a) * (modes @ weight)
+
+
+def mandel_settlement(height: float, half_width: float, force: float, t: float, m: Mandel, terms: int = 200) -> float:
+    """The plates' approach: how far the plate at ``height`` above the mid-plane moves towards it [m]."""
+    a = half_width
+    alpha = _mandel_roots(m, terms)
+    sin, cos = np.sin(alpha), np.cos(alpha)
+    decay = np.exp(-(alpha**2) * m.c * max(t, 0.0) / a**2)
+    strain = (-force * (1 - m.nu) / (2 * m.shear * a)
+              + force * (1 - m.nu_u) / (m.shear * a) * float(np.sum(sin * cos / (alpha - sin * cos) * decay)))
+    return -strain * height
+

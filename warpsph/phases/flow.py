@@ -45,9 +45,13 @@ class Flow(Calculation):
         dt = run.loop.get("dt", phase.time_step or phase.duration / 1000.0)
         stop = math.inf if run.stop_time is None else run.stop_time - run.phase_start_time
         rejected = None  # (change, step) of the first try of a step being retried shorter
+        framed = True  # whether the state has its frame (the phase's start has the one before it)
         while run.phase_time < phase.duration * (1.0 - 1e-12):
             t = run.phase_time
             if t >= stop:
+                if not framed:  # a run stopped at its end time keeps its last state, as a dynamic one does
+                    run.write_frame()
+                    run.checkpoint()
                 return STOPPED
             run.stop_if_interrupted()
             target = float(frame_times[np.searchsorted(frame_times, t * (1.0 + 1e-12) + 1e-300, side="right")])
@@ -86,7 +90,8 @@ class Flow(Calculation):
             self.series()
             if not np.all(np.isfinite(run.state.particle_pore_pressure.numpy())):
                 run.unstable("the pore pressure is not finite")
-            if run.loop["time"] == target:
+            framed = run.loop["time"] == target
+            if framed:
                 run.write_frame()
                 run.checkpoint()
             if progress is not None:

@@ -11,6 +11,7 @@ import warp as wp
 from warpsph.launching import launch
 from warpsph.model import PLATE_FORCE, PLATE_NONE, PLATE_ROUGH, PLATE_SMOOTH, PLATE_VELOCITY
 from warpsph.lattice import lattice_neighbours, used_axes
+from warpsph.scene_sections import AXES
 from warpsph.sph.spec import Spec
 
 PLATE_CONTACTS = {"rough": PLATE_ROUGH, "smooth": PLATE_SMOOTH}
@@ -168,6 +169,14 @@ class Plates:
         self.mass = wp.array(np.maximum(m.plates.mass, 1e-300), dtype=real, device=m.device)
         self.plate_of = boundaries.plate_of
         self.area = wp.array(m.plates.area, dtype=real, device=m.device)
+        particles = m.constraint_particle.numpy()
+        held = [particles[m.plates.plate_of == p] for p in range(m.plane_count)]
+        self._held_ranges = {p: (int(sum(map(len, held[:p]))), int(sum(map(len, held[: p + 1]))))
+                             for p in range(m.plane_count) if len(held[p])}  # fmt: skip
+        rows = np.concatenate([np.zeros(0, np.int32), *held]).astype(np.int32)
+        self._held = wp.array(rows, dtype=wp.int32, device=m.device)
+        """The particles each plate holds, plate after plate (``_held_ranges``), and their start positions."""
+        self._held_x0 = m.particle_x0[rows]
 
     def _sum_forces(self, state, pore) -> None:
         m, b = self.model, self.boundaries
@@ -192,3 +201,18 @@ class Plates:
         """(P,3) the force each plane's plate passes into the soil in ``state`` [N/m in 2D, N in 3D]."""
         self._sum_forces(state, pore)
         return self.force.numpy()[: self.model.plane_count].astype(np.float64)
+
+    def series(self, state, pore) -> dict[str, float]:
+        """Each plate's force into the soil (:meth:`forces`) and displacement since the run's start [m], the
+        mean of its particles', by component of the scene's axes: ``<plate>_force_y`` and so on."""
+        m = self.model
+        forces = self.forces(state, pore)
+        moved = wp.indexedarray(state.particle_q, [self._held]).numpy().astype(np.float64) - self._held_x0
+        out = {}
+        for p, (start, end) in self._held_ranges.items():
+            name = m.plane_names[p]
+            displacement = moved[start:end].mean(axis=0)
+            for axis in used_axes(m.spec.dim):
+                out[f"{name}_force_{AXES[axis]}"] = float(forces[p, axis])
+                out[f"{name}_displacement_{AXES[axis]}"] = float(displacement[axis])
+        return out

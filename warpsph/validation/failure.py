@@ -8,18 +8,7 @@ from types import SimpleNamespace
 
 import numpy as np
 
-from warpsph.validation.report import Check, Context, Outcome, case, figure, shipped_scene
-
-def run_scene(context: Context, case_name: str, label: str, scene, end_time: float | None = None):
-    """Run ``scene`` on the context's device into runs/<case_name>/<label> of its output directory
-    (overwriting an earlier run there); (its results, its run summary)."""
-    from warpsph.io import load_results
-    from warpsph.runner import Run
-
-    out = context.runs / case_name / label
-    summary = Run(scene, out, device=context.device, end_time=end_time, overwrite=True).run()
-    return load_results(out / "results.h5"), summary
-
+from warpsph.validation.report import Check, Context, Outcome, case, figure, run_scene, shipped_scene
 
 # -------------------------------------------------------------------------------- Prandtl footing
 FOOTING_END_TIME = {0.1: 1.5}

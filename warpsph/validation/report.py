@@ -227,3 +227,14 @@ def _write_index(out: Path, results: list[CaseResult], device: str, quick: bool)
                   f"![{r.title}]({r.outcome.figure})", "", *_check_rows(r.outcome.checks), "",
                   f"*{r.outcome.resolution}; {r.seconds:.0f} s on `{device}`; `{r.command}`*"]  # fmt: skip
     (out / "index.md").write_text("\n".join(lines) + "\n")
+
+
+def run_scene(context: Context, case_name: str, label: str, scene, end_time: float | None = None):
+    """Run ``scene`` on the context's device into runs/<case_name>/<label> of its output directory
+    (overwriting an earlier run there); (its results, its run summary)."""
+    from warpsph.io import load_results
+    from warpsph.runner import Run
+
+    out = context.runs / case_name / label
+    summary = Run(scene, out, device=context.device, end_time=end_time, overwrite=True).run()
+    return load_results(out / "results.h5"), summary
