@@ -19,8 +19,8 @@ import pytest
 from warpsph.errors import SceneError
 from warpsph.io import load_results
 from warpsph.runner import Run
-from warpsph.scene import (Body, Boundary, Drainage, Effects, Load, Material, Output, Phase, Probe, Region, Scene,
-                           Simulation, TimeFunction)
+from warpsph.scene import (Body, Boundary, Drainage, Effects, Load, Material, Output, Phase, PressureSolver, Probe,
+                           Region, Scene, Simulation, TimeFunction)
 
 H, E, NU, DENSITY, P = 1.0, 10e6, 0.3, 2000.0, 50e3
 E_OED = E * (1 - NU) / ((1 + NU) * (1 - 2 * NU))
@@ -89,6 +89,32 @@ def test_smooth_plate_lets_the_block_spread_under_it(tmp_path):
     assert -last["top_y"] == pytest.approx(settlement, rel=0.01)
 
 
+def test_smooth_rectangular_plate_on_a_3d_block(tmp_path):
+    """3D equilibrium of a quarter block 0.5 m a side (Δx = 0.1 m) under a smooth plate over its top: the base
+    takes the plate's force within 1 %, the free sides move as the closed form ν P L/E within 1 %."""
+    side = 0.5
+    scene = Scene(
+        simulation=Simulation(dim=3, dx=0.1, end_time=1.0), materials={"soil": SOIL},
+        bodies=[Body(name="block", material="soil", min=(0.0, 0.0, 0.0), max=(side, side, side))],
+        boundaries=[Boundary(name="base", kind="slip", axis="y", position=0.0, side="min"),
+                    Boundary(name="x0", kind="symmetry", axis="x", position=0.0, side="min"),
+                    Boundary(name="z0", kind="symmetry", axis="z", position=0.0, side="min")],
+        loads=[Load(name="plate", kind="plate", axis="y", side="max", position=side, contact="smooth",
+                    force=(0.0, -P * side**2, 0.0))],
+        phases=[Phase(name="load", kind="equilibrium", tolerance=1e-6)],
+        probes=[Probe(name="base", kind="reaction", field="y", boundary="base"),
+                Probe(name="side_x", kind="point", field="displacement_x", point=(side, side, 0.0))],
+        output=Output(probe_every=50, usd=False),
+    ).validate()  # fmt: skip
+    last = {name: float(v[-1]) for name, (t, v) in series(scene, tmp_path, ["plate_displacement_y"]).items()}
+    print(f"\nbase {last['base']:.1f} N for {P * side**2:.0f}; side {last['side_x'] * 1e3:.5f} mm for "
+          f"{NU * P * side / E * 1e3:.5f}; settlement {-last['plate_displacement_y'] * 1e3:.5f} for "
+          f"{P * side / E * 1e3:.5f}")  # fmt: skip
+    assert last["base"] == pytest.approx(P * side**2, rel=0.01)
+    assert last["side_x"] == pytest.approx(NU * P * side / E, rel=0.01)
+    assert -last["plate_displacement_y"] == pytest.approx(P * side / E, rel=0.01)
+
+
 def test_impermeable_plate_on_saturated_soil_draws_no_suction(tmp_path):
     """Mandel's geometry (a smooth impermeable plate over the top of a saturated block, its far side
     free and drained), loaded over 0.05 s and held to 0.3 s: no pore pressure below −1 % of the
@@ -139,3 +165,22 @@ def test_a_plate_under_which_no_particle_lies_is_refused(tmp_path):
     with pytest.raises(SceneError) as error:
         Run(scene, tmp_path).run()
     assert error.value.key == "loads.plate.extent"
+
+
+def test_a_plate_with_a_drained_base_drains_a_consolidation_phase():
+    """A consolidation phase needs somewhere for the water to go: a plate's drained base is such a place."""
+    soil = Material("soil", density=1700.0, youngs_modulus=30e6, poisson_ratio=0.2, porosity=0.3, grain_density=2000.0,
+                    water_bulk_modulus=100e6, hydraulic_conductivity=1e-3)  # fmt: skip
+
+    def scene(base_drainage: str) -> Scene:
+        return Scene(simulation=Simulation(dim=1, dx=0.1), effects=Effects(pore_water=True), materials={"soil": soil},
+                     bodies=[Body("column", "soil", min=(0, 0, 0), max=(0, H, 0))],
+                     boundaries=[Boundary("base", "fixed", "y", 0.0, "min")],
+                     loads=[plate(force=(0, -P, 0), base_drainage=base_drainage)],
+                     phases=[Phase("settle", "consolidation", duration=1.0)],
+                     pressure=PressureSolver(free_surface="impermeable")).validate()  # fmt: skip
+
+    scene("drained")
+    with pytest.raises(SceneError) as error:
+        scene("impermeable")
+    assert error.value.key == "phases.settle.kind" and "plate" in error.value.message

@@ -234,10 +234,11 @@ def _check_flow_phase(phase: Phase, key: str, scene: Scene) -> None:
     check_range(f"{key}.time_step", phase.time_step, NON_NEGATIVE)
     check_range(f"{key}.frames", phase.frames, Interval(1.0, lo_closed=True, hi_closed=True))
     drained = any(face.drainage.kind != "impermeable" for face in [*scene.boundaries, *scene.loads])
+    drained |= _drained_plate(scene)
     if (phase.kind == "consolidation" and not drained and not scene.reservoirs
             and scene.pressure.free_surface == "impermeable"):  # fmt: skip
         raise SceneError(f"{key}.kind", "a consolidation phase drains the pore water, and this scene has nowhere "
-                         "for it to go: add a drained boundary or load, a reservoir, or set pressure.free_surface = "
+                         "for it to go: add a drained boundary, load or plate, a reservoir, or set pressure.free_surface = "
                          '"drained"')  # fmt: skip
     if phase.steady and not drained and not scene.reservoirs:
         raise SceneError(f"{key}.steady", "a steady flow needs water to come from somewhere: a drained or inflow "
@@ -435,13 +436,18 @@ def _check_pore_water_can_escape(scene: Scene) -> None:
     """Refuse saturated soil whose water can neither leave (no drained face) nor compress."""
     if not scene.effects.pore_water or scene.pressure.free_surface == "drained":
         return
-    if any(face.drainage.kind == "drained" for face in [*scene.boundaries, *scene.loads]):
+    if any(face.drainage.kind == "drained" for face in [*scene.boundaries, *scene.loads]) or _drained_plate(scene):
         return
     if all(math.isinf(scene.materials[body.material].biot_modulus) for body in scene.bodies):
         raise SceneError(
             "effects.pore_water",
             "the pore water can neither drain nor compress: add a drained boundary or a finite water_bulk_modulus",
         )
+
+
+def _drained_plate(scene: Scene) -> bool:
+    """Whether a plate's base drains."""
+    return any(ld.kind == "plate" and ld.base_drainage == "drained" for ld in scene.loads)
 
 
 def _check_face(face: Boundary | Load, key: str, dim: int) -> None:
