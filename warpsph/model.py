@@ -170,6 +170,10 @@ class State:
     """(N+G,) accumulated equivalent plastic strain ε̄ = ∫√(⅔ d^vp:d^vp) dt [-] (plasticity only)."""
     plate_velocity: wp.array | None = None
     """(P,) vec3 velocity of each plane's rigid plate [m/s] (only with plates)."""
+    plate_spin: wp.array | None = None
+    """(P,) vec3 its angular velocity about its centre [rad/s] (only with plates)."""
+    plate_rotation: wp.array | None = None
+    """(P,) vec3 its rotation [rad], the spin's integral (only with plates)."""
 
     @classmethod
     def allocate(cls, model: Model) -> "State":
@@ -185,8 +189,9 @@ class State:
             virtual_density=wp.zeros(m, dtype=s.real, device=dev) if two_set else None,
             particle_pore_pressure=wp.zeros(n, dtype=wp.float64, device=dev) if s.effects.pore_water else None,
             particle_plastic_strain=wp.zeros(n, dtype=s.real, device=dev) if s.effects.plasticity else None,
-            plate_velocity=(wp.zeros(model.plane_count, dtype=s.vec3, device=dev)
-                            if model.plates is not None and model.plates.count else None),
+            **{name: (wp.zeros(model.plane_count, dtype=s.vec3, device=dev)
+                      if model.plates is not None and model.plates.count else None)
+               for name in ("plate_velocity", "plate_spin", "plate_rotation")},
         )
 
     def arrays(self) -> dict[str, wp.array]:

@@ -411,6 +411,9 @@ def _check_plate(load: Load, key: str, scene: Scene) -> None:
     """A plate's drive, its base's drainage and what drives it."""
     check_choice(f"{key}.drive", load.drive, ("force", "velocity"))
     check_choice(f"{key}.base_drainage", load.base_drainage, ("impermeable", "drained"))
+    check_choice(f"{key}.rotation", load.rotation, ("fixed", "free"))
+    if any(load.moment) and load.rotation != "free":
+        raise SceneError(f"{key}.moment", 'a plate takes a moment when it may rotate: set rotation = "free"')
     if load.base_drainage != "impermeable":
         needs_pore_water(f"{key}.base_drainage", scene.effects, "")
     other = "velocity" if load.drive == "force" else "force"

@@ -362,7 +362,7 @@ class Load(_OnPlane):
     ``velocity`` × f(t); "force" moves it so that it passes ``force`` × f(t) [N/m in 2D, N in 3D] into
     the soil. ``contact`` "rough" holds the particles under it to its motion, "smooth" along its normal
     only; its base is ``base_drainage`` ("impermeable" or "drained", pore water), its face beside it
-    ``drainage``. It translates without rotating (docs/method.md, *Rigid plates*).
+    ``drainage``. It translates, and with ``rotation`` "free" spins too (docs/method.md, *Rigid plates*).
     """
 
     name: str = "load"
@@ -382,6 +382,11 @@ class Load(_OnPlane):
     """A plate: "force" or "velocity"."""
     base_drainage: str = "impermeable"
     """A plate's base: "impermeable" or "drained" (pore water)."""
+    rotation: str = "fixed"
+    """A plate: "fixed" (it translates) or "free" (it also spins about its centre, in 2D about z, in 3D about
+    the axes along its face, under ``moment`` × f(t) and the soil's moment)."""
+    moment: tuple[float, float, float] = (0.0, 0.0, 0.0)
+    """A plate free to rotate: the moment applied about its centre [N m/m in 2D, N m in 3D]."""
     time_function: TimeFunction = field(default_factory=TimeFunction)
     drainage: Drainage = field(default_factory=Drainage)
     """Pore-water condition of the loaded face (pore_water effect)."""

@@ -41,7 +41,8 @@ class Equilibrium(Calculation):
 
     def _applied_force_parts(self) -> tuple[float, list]:
         """What :meth:`applied_force` needs that a phase does not change: Σ m‖g‖, and each traction
-        plane's, force load's and force-driven plate's full resultant with its time function."""
+        plane's, force load's and force-driven plate's full resultant with its time function (a plate's
+        moment as a force at its radius of gyration)."""
         m = self.run.model
         weight = float(np.sum(m.particle_mass.numpy()[: m.particle_count])) * float(np.linalg.norm(m.gravity))
         counts = np.bincount(m.constraint_planes.numpy().reshape(-1, 3).ravel() + 1, minlength=m.plane_count + 1)
@@ -50,6 +51,12 @@ class Equilibrium(Calculation):
                  for p in range(m.plane_count) if kinds[p] == PLANE_TRACTION]  # fmt: skip
         loads += [(float(np.linalg.norm(ld.force)), ld.time_function) for ld in self.run.phase_scene.loads
                   if ld.kind == "force" or (ld.kind == "plate" and ld.drive == "force")]  # fmt: skip
+        plates = m.plates
+        for p in np.nonzero(np.any(plates.moment * plates.spin_axes != 0.0, axis=1))[0]:
+            # a moment as the force that turns the plate's particles at their radius of gyration
+            gyration = math.sqrt(float(np.max(plates.inertia[p] * plates.spin_axes[p])) / plates.mass[p])
+            loads.append((float(np.linalg.norm(plates.moment[p] * plates.spin_axes[p])) / gyration,
+                          m.plane_functions[p]))  # fmt: skip
         return weight, loads
 
     def equilibrate(self, progress, first: int, output: bool = True, judge=None) -> tuple[bool, float]:

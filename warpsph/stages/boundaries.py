@@ -40,11 +40,13 @@ def plane_functions(spec: Spec):
         return planes.plate_contact[p] != PLATE_NONE and inside_extent(p, x, axis, planes.plate_lo, planes.plate_hi)
 
     @wp.func
-    def plate_velocity(p: int, planes: Planes):
-        """The velocity [m/s] of plane p's plate: prescribed × f(t), or its force balance's."""
+    def plate_velocity(p: int, planes: Planes, x: vec3):
+        """The velocity [m/s] of plane p's plate at the point that started at x: its translation (prescribed
+        × f(t), or its force balance's) and its spin ω × (x − c) about its centre c."""
+        v = planes.plate_velocity[p]
         if planes.plate_drive[p] == PLATE_VELOCITY:
-            return planes.plate_vector[p] * planes.factor[p]
-        return planes.plate_velocity[p]
+            v = planes.plate_vector[p] * planes.factor[p]
+        return v + wp.cross(planes.plate_spin[p], x - planes.plate_centre[p])
 
     @wp.func
     def traction_here(p: int, x: vec3, axis: int, vector: wp.array(dtype=vec3), lo: wp.array(dtype=vec3),
@@ -73,7 +75,8 @@ def planes_struct(spec: Spec):
     kernels take them, (P,) each: axis, current position [m], outward sign, kind, prescribed vector (a
     velocity [m/s] or a traction [Pa]), extent lo and hi [m], the load factor f(t) of the time, the rigid
     plate on the plane (:mod:`warpsph.stages.plates`: its contact, drive, prescribed velocity [m/s] or
-    force [N/m, N], extent, base drainage and current velocity [m/s]), and with pore water the drainage
+    force [N/m, N], extent, base drainage, current velocity [m/s], spin [rad/s] and centre [m]), and with
+    pore water the drainage
     kind (0 impermeable, 1 drained, 2 inflow), its extent drained_lo and drained_hi [m], and the drained
     pressure [Pa], head [m] (NaN: none) and inflow [m/s] at the time (:meth:`Boundaries.with_drainage`)."""
     real, vec3 = spec.real, spec.vec3
@@ -95,6 +98,8 @@ def planes_struct(spec: Spec):
         plate_hi: wp.array(dtype=vec3)
         plate_base: wp.array(dtype=wp.int32)
         plate_velocity: wp.array(dtype=vec3)
+        plate_spin: wp.array(dtype=vec3)
+        plate_centre: wp.array(dtype=vec3)
         drainage: wp.array(dtype=wp.int32)
         drained_lo: wp.array(dtype=vec3)
         drained_hi: wp.array(dtype=vec3)
@@ -196,14 +201,14 @@ def _kernels(spec: Spec, stress_type=None):
                     # a slip plane, or a smooth plate: the normal velocity mirrored about the plane's, no shear
                     u_n = real(0.0)
                     if plate:
-                        u_n = plate_velocity(p, planes)[m]
+                        u_n = plate_velocity(p, planes, origin[src])[m]
                     u[m] = two * u_n - u[m]
                     for k in range(3):
                         if k != m:
                             s[m, k] = -s[m, k]
                             s[k, m] = -s[k, m]
                 elif plate:
-                    u = two * plate_velocity(p, planes) - u
+                    u = two * plate_velocity(p, planes, origin[src]) - u
                 else:
                     # the load at the source's own point: a ghost of a ghost across a symmetry
                     # plane sees the mirror image of the load, not the load at its mirrored place
@@ -261,7 +266,7 @@ def _kernels(spec: Spec, stress_type=None):
                 elif kind == PLANE_SLIP:
                     u[m] = real(0.0)
                 elif on_plate(p, origin[a], m, planes):
-                    plate_u = plate_velocity(p, planes)
+                    plate_u = plate_velocity(p, planes, origin[a])
                     if planes.plate_contact[p] == PLATE_ROUGH:
                         u = plate_u
                     else:
@@ -373,6 +378,8 @@ class Boundaries:
         p.plate_hi = arr(plates.hi.astype(npr), dtype=model.spec.vec3)
         p.plate_base = arr(plates.base, dtype=wp.int32)
         p.plate_velocity = wp.zeros(max(model.plane_count, 1), dtype=model.spec.vec3, device=model.device)
+        p.plate_spin = wp.zeros(max(model.plane_count, 1), dtype=model.spec.vec3, device=model.device)
+        p.plate_centre = arr(plates.centre.astype(npr), dtype=model.spec.vec3)
         self.plates = Plates(model, self) if plates.count else None
         """The rigid plates' force balance (none without plates)."""
         if model.pore is not None:
