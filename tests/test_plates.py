@@ -62,6 +62,32 @@ def test_force_driven_plate_on_a_column_passes_its_force(tmp_path):
     assert hold["plate_displacement_y"] == pytest.approx(hold["top"], rel=1e-6)
 
 
+def test_impermeable_plate_on_a_saturated_column_passes_its_force_to_the_water_and_the_skeleton(tmp_path):
+    """1D, saturated and sealed (an impermeable plate over an impermeable base), 50 kPa ramped over 0.05 s:
+    the base takes the plate's force within 1 % (its mean over 0.1–0.3 s), the water carries P Q/(Q + E_oed)
+    and the column settles P H/(E_oed + Q), the undrained closed forms, within 1 %."""
+    soil = Material("soil", density=1700.0, youngs_modulus=30e6, poisson_ratio=0.2, porosity=0.3, grain_density=2000.0,
+                    water_bulk_modulus=100e6, hydraulic_conductivity=1e-3)  # fmt: skip
+    end = 0.3
+    scene = Scene(
+        simulation=Simulation(dim=1, dx=0.05, end_time=end), effects=Effects(pore_water=True), materials={"soil": soil},
+        bodies=[Body("column", "soil", min=(0, 0, 0), max=(0, H, 0))],
+        boundaries=[Boundary("base", "fixed", "y", 0.0, "min")],
+        loads=[plate(force=(0, -P, 0), time_function=TimeFunction("ramp", duration=0.05))],
+        probes=[Probe(name="base", kind="reaction", field="y", boundary="base"),
+                Probe(name="water", kind="point", field="pore_pressure", point=(0, H / 2, 0))],
+        output=Output(frame_interval=end, probe_every=10, usd=False),
+    ).validate()  # fmt: skip
+    out = series(scene, tmp_path, ["plate_displacement_y"])
+    hold = {name: float(np.mean(v[t > 0.1])) for name, (t, v) in out.items()}
+    q, e_oed = soil.biot_modulus, soil.oedometric_modulus
+    print(f"\nbase {hold['base']:.1f} N/m² for {P:.0f}; water {hold['water']:.1f} Pa for {P * q / (q + e_oed):.1f}; "
+          f"settlement {-hold['plate_displacement_y'] * 1e3:.5f} mm for {P * H / (e_oed + q) * 1e3:.5f}")  # fmt: skip
+    assert hold["base"] == pytest.approx(P, rel=0.01)
+    assert hold["water"] == pytest.approx(P * q / (q + e_oed), rel=0.01)
+    assert -hold["plate_displacement_y"] == pytest.approx(P * H / (e_oed + q), rel=0.01)
+
+
 def test_smooth_plate_lets_the_block_spread_under_it(tmp_path):
     """2D equilibrium: the base takes the plate's force within 1 %; the top row moves sideways as the
     mid-plane does (within 2 %), both as the closed form; the settlement within 1 %."""
