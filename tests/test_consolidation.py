@@ -154,3 +154,26 @@ def test_consolidation_phase_input_errors():
     scene.pressure.free_surface = "impermeable"
     with pytest.raises(SceneError, match=r"^phases.consolidation.kind: .*nowhere for it to go"):
         scene.validate()
+
+
+def test_an_iteration_that_never_converges_stops_after_ten_halvings(tmp_path, monkeypatch):
+    """A fixed-stress iteration that fails whatever the step (a stall at the skeleton equilibrium's
+    precision) stops the phase after ten tries in a row, the step halved after each, not after the forty
+    that take it down to 1e-12 of the phase: one line naming the stall, the checkpoint before it kept."""
+    from warpsph.errors import SimulationError
+    from warpsph.phases.flow import MAX_FAILED_TRIES
+    from warpsph.stages.consolidation import FixedStressSplit
+
+    tries = []
+
+    def never(self, t, dt):
+        tries.append(dt)
+        self.collapsed, self.iterations = False, 30
+        return False
+
+    monkeypatch.setattr(FixedStressSplit, "solve", never)
+    with pytest.raises(SimulationError, match="fixed-stress iteration does not converge: 10 tries in a row"):
+        Run(consolidation_scene(1.0), tmp_path).run()
+    assert len(tries) == MAX_FAILED_TRIES
+    assert tries[-1] == pytest.approx(tries[0] / 2 ** (MAX_FAILED_TRIES - 1))
+    assert (tmp_path / "checkpoint.h5").exists()

@@ -12,6 +12,11 @@ from warpsph.phases.staging import CONVERGED, FINISHED, NOT_CONVERGED, STOPPED
 from warpsph.stages.groundwater import GroundwaterFlow
 
 
+MAX_FAILED_TRIES = 10
+"""Consolidation tries in a row whose fixed-stress iteration fails (the step halved after each, to 1/1024 of
+the first) after which the phase is stopped as unstable."""
+
+
 class Flow(Calculation):
     """Groundwater flow through the fixed skeleton (:class:`~warpsph.stages.groundwater.GroundwaterFlow`):
     the steady state, or a transient of the phase's duration (:meth:`implicit_steps`)."""
@@ -45,6 +50,7 @@ class Flow(Calculation):
         dt = run.loop.get("dt", phase.time_step or phase.duration / 1000.0)
         stop = math.inf if run.stop_time is None else run.stop_time - run.phase_start_time
         rejected = None  # (change, step) of the first try of a step being retried shorter
+        failures = 0  # consolidation tries in a row whose iteration did not converge
         framed = True  # whether the state has its frame (the phase's start has the one before it)
         while run.phase_time < phase.duration * (1.0 - 1e-12):
             t = run.phase_time
@@ -70,8 +76,13 @@ class Flow(Calculation):
             step_driven = rejected is None or stepper.step_change < 0.75 * rejected[0]
             if not converged or (stepper.step_change > 1.5 and step_driven and step > smallest):
                 dt = 0.5 * step if not converged else step * max(0.25, 0.8 / stepper.step_change)
+                failures = failures + 1 if not converged else 0
                 if dt < smallest:
                     run.unstable(f"the {phase.kind} does not converge even with a time step of {step:.3g} s")
+                if stepper is self.split and failures >= MAX_FAILED_TRIES:
+                    run.unstable(f"the consolidation's fixed-stress iteration does not converge: {failures} tries in a "
+                                 f"row failed, the step halved to {step:.3g} s (a stall at the skeleton equilibrium's "
+                                 "precision does not shrink with the step; docs/method.md, Known limits)")  # fmt: skip
                 if converged:  # too large a change: put the step back
                     stepper.undo()
                     rejected = (stepper.step_change, step if rejected is None else rejected[1])
@@ -82,6 +93,7 @@ class Flow(Calculation):
             elif step >= dt:  # not a step shortened to meet a frame time
                 dt = step * min(1.5, 0.9 / max(stepper.step_change, 1e-300))
             rejected = None
+            failures = 0
             run.loop["dt"], run.loop["steps"] = dt, steps + 1
             if stepper is self.flow:
                 run.step_index += 1
