@@ -29,6 +29,7 @@ from warpsph.stages.energy import EnergyLedger
 from warpsph.stages.ghost_layout import GhostLayout
 from warpsph.stages.groundwater_kernels import groundwater_kernels
 from warpsph.stages.hourglass import HourglassControl
+from warpsph.stages.plates import Plates
 from warpsph.stages.rigid import RigidRegions
 from warpsph.stages.surface_water import SurfaceWater, levels, surface_water
 from warpsph.stages.shifting import apply_shift, compute_shift
@@ -123,6 +124,8 @@ class Solver:
         self.profile = profile
         self.stage_seconds: dict[str, float] = {}
         self.boundaries = Boundaries(model)
+        self.plates = Plates(model, self.boundaries) if model.plates.count else None
+        """The rigid plates' force balance (none without plates)."""
         self.energy = EnergyLedger(model)
         """The particles' energy ledger the step adds to (:mod:`warpsph.stages.energy`)."""
         self.rigid = RigidRegions(model, self.energy.ledger)
@@ -239,9 +242,9 @@ class Solver:
 
     def _step_plates(self, si: State, so: State, pressure, dt: float) -> None:
         """The rigid plates' velocities over the step (none where ``si`` is ``so``: geometry alone)."""
-        if self.boundaries.plates is not None and si is not so:
+        if self.plates is not None and si is not so:
             damping = self.damping.alpha if self.damping is not None else 0.0
-            self.boundaries.plates.step(si, so, pressure, dt, damping)
+            self.plates.step(si, so, pressure, dt, damping)
 
     def _neighbours_two_set(self, si: State, so: State, t: float, dt: float) -> None:
         m = self.model
@@ -358,7 +361,7 @@ class Solver:
     def plate_series(self, state: State) -> dict[str, float]:
         """Each rigid plate's force into the soil [N/m in 2D, N in 3D] and displacement [m] in ``state``, by
         series name (``<plate>_force_y``, ``<plate>_displacement_y``, …); none without plates."""
-        plates = self.boundaries.plates
+        plates = self.plates
         return {} if plates is None else plates.series(state, self._stress_pressure(state))
 
     def _stress_pressure(self, si: State):

@@ -15,7 +15,6 @@ from warpsph.physics.elastic import elastic_struct, strain_energy_function
 from warpsph.sph.packed_stress import as_stored, as_tensor
 from warpsph.sph.spec import Spec
 from warpsph.stages.energy import BOUNDARIES, ledger_columns
-from warpsph.stages.plates import Plates
 
 
 @functools.cache
@@ -380,8 +379,6 @@ class Boundaries:
         p.plate_velocity = wp.zeros(max(model.plane_count, 1), dtype=model.spec.vec3, device=model.device)
         p.plate_spin = wp.zeros(max(model.plane_count, 1), dtype=model.spec.vec3, device=model.device)
         p.plate_centre = arr(plates.centre.astype(npr), dtype=model.spec.vec3)
-        self.plates = Plates(model, self) if plates.count else None
-        """The rigid plates' force balance (none without plates)."""
         if model.pore is not None:
             p.drainage, p.drained_lo, p.drained_hi = (model.pore.plane_drainage, model.pore.plane_drained_lo,
                                                       model.pore.plane_drained_hi)  # fmt: skip

@@ -13,6 +13,7 @@ from warpsph.model import PLATE_FORCE, PLATE_NONE, PLATE_ROUGH, PLATE_SMOOTH, PL
 from warpsph.lattice import lattice_neighbours, used_axes
 from warpsph.scene_sections import AXES
 from warpsph.sph.spec import Spec
+from warpsph.stages.boundaries import planes_struct, water_functions
 
 PLATE_CONTACTS = {"rough": PLATE_ROUGH, "smooth": PLATE_SMOOTH}
 PLATE_DRIVES = {"velocity": PLATE_VELOCITY, "force": PLATE_FORCE}
@@ -111,8 +112,6 @@ def plate_layout(plates: list, axes: list[int], on_plane: np.ndarray, points: np
 
 @functools.cache
 def _kernels(spec: Spec):
-    from warpsph.stages.boundaries import planes_struct, water_functions
-
     real, vec3 = spec.real, spec.vec3
     pore_water = spec.effects.pore_water
     Planes = planes_struct(spec)
