@@ -238,8 +238,8 @@ def _check_flow_phase(phase: Phase, key: str, scene: Scene) -> None:
     if (phase.kind == "consolidation" and not drained and not scene.reservoirs
             and scene.pressure.free_surface == "impermeable"):  # fmt: skip
         raise SceneError(f"{key}.kind", "a consolidation phase drains the pore water, and this scene has nowhere "
-                         "for it to go: add a drained boundary, load or plate, a reservoir, or set pressure.free_surface = "
-                         '"drained"')  # fmt: skip
+                         "for it to go: add a drained boundary, load or plate, a reservoir, or set "
+                         'pressure.free_surface = "drained"')  # fmt: skip
     if phase.steady and not drained and not scene.reservoirs:
         raise SceneError(f"{key}.steady", "a steady flow needs water to come from somewhere: a drained or inflow "
                          "boundary, or a reservoir; with seepage faces alone the soil drains to nothing")  # fmt: skip

@@ -256,7 +256,8 @@ class Mandel(NamedTuple):
 
 def mandel_constants(material) -> Mandel:
     """:class:`Mandel` of ``material`` (a :class:`~warpsph.scene.Material` with pore water)."""
-    bulk, shear, q = material.lame_lambda + 2.0 * material.shear_modulus / 3.0, material.shear_modulus, material.biot_modulus
+    shear, q = material.shear_modulus, material.biot_modulus
+    bulk = material.lame_lambda + 2.0 * shear / 3.0
     undrained = bulk + q
     nu, nu_u = material.poisson_ratio, (3.0 * undrained - 2.0 * shear) / (2.0 * (3.0 * undrained + shear))
     b = q / undrained
