@@ -26,7 +26,8 @@ def test_consolidation_phase_follows_the_closed_form(tmp_path):
     sampled at the frames)."""
     scene, m = mandel_scene(0.2, 4)
     Run(scene, tmp_path).run()
-    rows, rise = measured(tmp_path, m, undrained_start=False), centre_rise(tmp_path, m)
+    results = load_results(tmp_path / "results.h5")
+    rows, rise = measured(results, m, undrained_start=False), centre_rise(results, m)
     report(rows, rise)
     for tv, l2, settlement, exact in rows:
         assert l2 < 0.02
@@ -40,7 +41,8 @@ def test_dynamic_saturated_run_follows_the_closed_form_and_stays_stable_to_t_1(t
     a first-order lag before), the centre's rise within 2 % of the peak, no suction, finished."""
     scene, m = mandel_scene(1.0, 10, dynamic=True)
     summary = Run(scene, tmp_path).run()
-    rows, rise = measured(tmp_path, m, undrained_start=True), centre_rise(tmp_path, m)
+    results = load_results(tmp_path / "results.h5")
+    rows, rise = measured(results, m, undrained_start=True), centre_rise(results, m)
     report(rows, rise)
     assert summary.status == "finished"
     for tv, l2, settlement, exact in rows:
@@ -48,7 +50,6 @@ def test_dynamic_saturated_run_follows_the_closed_form_and_stays_stable_to_t_1(t
         if tv > 0.19:
             assert settlement == pytest.approx(exact, rel=0.02)
     assert rise[0] == pytest.approx(rise[1], rel=0.02)
-    results = load_results(tmp_path / "results.h5")
     lowest = min(results.frame(i)["pore_pressure"].min() for i in range(len(results)))
     assert lowest >= -0.01 * FORCE / HALF_WIDTH
 
@@ -59,6 +60,6 @@ def test_shipped_scene_to_t_1(tmp_path):
     settlement within 2 % at every frame."""
     scene, m = mandel_scene(1.0, 20)
     Run(scene, tmp_path).run()
-    for tv, l2, settlement, exact in measured(tmp_path, m, undrained_start=False):
+    for tv, l2, settlement, exact in measured(load_results(tmp_path / "results.h5"), m, undrained_start=False):
         assert l2 < 0.02
         assert settlement == pytest.approx(exact, rel=0.02)

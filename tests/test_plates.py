@@ -35,6 +35,12 @@ def series(scene: Scene, out, extra=()) -> dict:
     return {name: results.series(name) for name in [*(p.name for p in scene.probes), *extra]}
 
 
+def saturated(hydraulic_conductivity: float) -> Material:
+    """A saturated soil (Terzaghi's set A but for its permeability)."""
+    return Material("soil", density=1700.0, youngs_modulus=30e6, poisson_ratio=0.2, porosity=0.3, grain_density=2000.0,
+                    water_bulk_modulus=100e6, hydraulic_conductivity=hydraulic_conductivity)  # fmt: skip
+
+
 def plate(**kw) -> Load:
     return Load(name="plate", kind="plate", axis="y", side="max", position=H, **kw)
 
@@ -66,8 +72,7 @@ def test_impermeable_plate_on_a_saturated_column_passes_its_force_to_the_water_a
     """1D, saturated and sealed (an impermeable plate over an impermeable base), 50 kPa ramped over 0.05 s:
     the base takes the plate's force within 1 % (its mean over 0.1–0.3 s), the water carries P Q/(Q + E_oed)
     and the column settles P H/(E_oed + Q), the undrained closed forms, within 1 %."""
-    soil = Material("soil", density=1700.0, youngs_modulus=30e6, poisson_ratio=0.2, porosity=0.3, grain_density=2000.0,
-                    water_bulk_modulus=100e6, hydraulic_conductivity=1e-3)  # fmt: skip
+    soil = saturated(1e-3)
     end = 0.3
     scene = Scene(
         simulation=Simulation(dim=1, dx=0.05, end_time=end), effects=Effects(pore_water=True), materials={"soil": soil},
@@ -167,8 +172,7 @@ def test_impermeable_plate_on_saturated_soil_draws_no_suction(tmp_path):
     """Mandel's geometry (a smooth impermeable plate over the top of a saturated block, its far side
     free and drained), loaded over 0.05 s and held to 0.3 s: no pore pressure below −1 % of the
     plate's stress, and the base takes its force (mean over the hold, where the block rings) within 1 %."""
-    soil = Material("soil", density=1700.0, youngs_modulus=30e6, poisson_ratio=0.2, porosity=0.3, grain_density=2000.0,
-                    water_bulk_modulus=100e6, hydraulic_conductivity=1e-5)  # fmt: skip
+    soil = saturated(1e-5)
     end = 0.3
     scene = Scene(
         simulation=Simulation(dim=2, dx=0.1, end_time=end), effects=Effects(pore_water=True), materials={"soil": soil},
@@ -219,8 +223,7 @@ def test_a_plate_under_which_no_particle_lies_is_refused(tmp_path):
 
 def test_a_plate_with_a_drained_base_drains_a_consolidation_phase():
     """A consolidation phase needs somewhere for the water to go: a plate's drained base is such a place."""
-    soil = Material("soil", density=1700.0, youngs_modulus=30e6, poisson_ratio=0.2, porosity=0.3, grain_density=2000.0,
-                    water_bulk_modulus=100e6, hydraulic_conductivity=1e-3)  # fmt: skip
+    soil = saturated(1e-3)
 
     def scene(base_drainage: str) -> Scene:
         return Scene(simulation=Simulation(dim=1, dx=0.1), effects=Effects(pore_water=True), materials={"soil": soil},

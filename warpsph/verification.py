@@ -275,6 +275,11 @@ def _mandel_roots(m: Mandel, terms: int) -> np.ndarray:
                      for n in range(terms)])  # fmt: skip
 
 
+def mandel_undrained_pressure(half_width: float, force: float, m: Mandel) -> float:
+    """p(x, 0⁺) = F B (1 + ν_u)/(3a) [Pa], uniform across the specimen (a = ``half_width``, F = ``force``)."""
+    return force * m.skempton * (1 + m.nu_u) / (3.0 * half_width)
+
+
 def mandel_pressure(x, half_width: float, force: float, t: float, m: Mandel, terms: int = 200) -> np.ndarray:
     """Pore pressure p(x, t) [Pa] of a specimen 2a wide (a = ``half_width``) under a force 2F
     (F = ``force`` [N/m], on the half-width) applied at t = 0, at distances ``x`` from its centre (Cheng
@@ -282,12 +287,12 @@ def mandel_pressure(x, half_width: float, force: float, t: float, m: Mandel, ter
     x = np.asarray(x, dtype=float)
     a = half_width
     if t <= 0.0:
-        return np.full_like(x, force * m.skempton * (1 + m.nu_u) / (3.0 * a))
+        return np.full_like(x, mandel_undrained_pressure(a, force, m))
     alpha = _mandel_roots(m, terms)
     sin, cos = np.sin(alpha), np.cos(alpha)
     weight = sin / (alpha - sin * cos) * np.exp(-(alpha**2) * m.c * t / a**2)
     modes = np.cos(np.outer(x / a, alpha)) - cos
-    return 2.0 * force * m.skempton * (1 + m.nu_u) / (3.0 * a) * (modes @ weight)
+    return 2.0 * mandel_undrained_pressure(a, force, m) * (modes @ weight)
 
 
 def mandel_settlement(height: float, half_width: float, force: float, t: float, m: Mandel, terms: int = 200) -> float:

@@ -75,9 +75,9 @@ def planes_struct(spec: Spec):
     velocity [m/s] or a traction [Pa]), extent lo and hi [m], the load factor f(t) of the time, the rigid
     plate on the plane (:mod:`warpsph.stages.plates`: its contact, drive, prescribed velocity [m/s] or
     force [N/m, N], extent, base drainage, current velocity [m/s], spin [rad/s] and centre [m]), and with
-    pore water the drainage
-    kind (0 impermeable, 1 drained, 2 inflow), its extent drained_lo and drained_hi [m], and the drained
-    pressure [Pa], head [m] (NaN: none) and inflow [m/s] at the time (:meth:`Boundaries.with_drainage`)."""
+    pore water the drainage kind (0 impermeable, 1 drained, 2 inflow), its extent drained_lo and drained_hi
+    [m], and the drained pressure [Pa], head [m] (NaN: none) and inflow [m/s] at the time
+    (:meth:`Boundaries.with_drainage`)."""
     real, vec3 = spec.real, spec.vec3
 
     @wp.struct
@@ -414,7 +414,7 @@ class Boundaries:
                [m.plane_kind, m.plane_position, self._on_plane_count, self._plane_sums, self.plane_position],
                m.device)  # fmt: skip
 
-    def _water_args(self, material, pore):
+    def water_args(self, material, pore):
         """Body force and pore-water arguments of the ghost and prescription kernels."""
         return [self.gravity, material, pore if self.model.pore is not None else None]
 
@@ -424,7 +424,7 @@ class Boundaries:
         update_ghosts, *_ = _kernels(m.spec)
         launch(update_ghosts, m.particle_ghost_count,
                [m.particle_count, m.particle_ghost_source, m.particle_ghost_planes, self.planes,
-                *self._water_args(m.particle_material, pore), m.particle_origin, q, v, stress,
+                *self.water_args(m.particle_material, pore), m.particle_origin, q, v, stress,
                 density],
                m.device)  # fmt: skip
 
@@ -434,7 +434,7 @@ class Boundaries:
         update_ghosts, *_ = _kernels(m.spec, stress.dtype)
         launch(update_ghosts, m.virtual_ghost_count,
                [m.virtual_count, m.virtual_ghost_source, m.virtual_ghost_planes, self.planes,
-                *self._water_args(m.virtual_material, pore), m.virtual_origin, q, v, stress,
+                *self.water_args(m.virtual_material, pore), m.virtual_origin, q, v, stress,
                 density],
                m.device)  # fmt: skip
 
@@ -452,5 +452,5 @@ class Boundaries:
         _, on_planes, *_ = _kernels(m.spec)
         launch(on_planes, m.constraint_count,
                [m.constraint_particle, m.constraint_planes, self.planes,
-                *self._water_args(m.particle_material, pore), m.particle_origin, q, v, stress,
+                *self.water_args(m.particle_material, pore), m.particle_origin, q, v, stress,
                 m.particle_mass, density, m.material_elastic, ledger], m.device)  # fmt: skip

@@ -2,9 +2,8 @@
 (docs/method.md, *Phases*).
 """
 
-from __future__ import annotations
-
 import functools
+from typing import Any
 
 import numpy as np
 import warp as wp
@@ -21,6 +20,16 @@ of an equilibrium phase (the largest ``simulation.velocity_filter`` accepts). Me
 slope under gravity (Δx = 0.2 m, α = 0.8): with β = 0 the mode grows along the toe's free surface and the
 unbalanced-force ratio stalls at 7e-3 before the run blows up; β = 0.1 stalls at 1.2e-5; β = 0.5 reaches
 1e-5 in 0.7 s of damped time."""
+
+
+@wp.func
+def damped(a: Any, v: Any, alpha: Any):
+    """Local damping's acceleration, each component a_k − α |a_k| sign(v_k), against the velocity v (the
+    particles' here, a rigid plate's in :mod:`warpsph.stages.plates`)."""
+    out = a
+    for k in range(3):
+        out[k] = a[k] - alpha * wp.abs(a[k]) * wp.sign(v[k])
+    return out
 
 
 @functools.cache
@@ -42,11 +51,8 @@ def damping_kernel(spec: Spec):
         i = wp.tid()
         a = (v_out[i] - v_in[i]) / dt
         if free[i] != 0:
-            damped = vec3()
-            for k in range(3):
-                damped[k] = a[k] - alpha * wp.abs(a[k]) * wp.sign(v_in[i][k])
             undamped = v_out[i]
-            v_out[i] = v_in[i] + dt * damped
+            v_out[i] = v_in[i] + dt * damped(a, v_in[i], alpha)
             removed = real(0.5) * mass[i] * (wp.dot(undamped, undamped) - wp.dot(v_out[i], v_out[i]))
             ledger[i, wp.static(column[DAMPING])] += wp.float64(removed)
         wp.atomic_add(sums, 0, wp.float64(mass[i] * wp.length(a)))

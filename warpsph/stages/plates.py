@@ -13,6 +13,7 @@ from warpsph.model import PLATE_FORCE, PLATE_NONE, PLATE_ROUGH, PLATE_SMOOTH, PL
 from warpsph.lattice import lattice_neighbours, used_axes
 from warpsph.scene_sections import AXES
 from warpsph.sph.spec import Spec
+from warpsph.stages.damping import damped
 from warpsph.stages.boundaries import planes_struct, water_functions
 
 PLATE_CONTACTS = {"rough": PLATE_ROUGH, "smooth": PLATE_SMOOTH}
@@ -183,16 +184,13 @@ def _kernels(spec: Spec):
                 normal_acc = acc[m]
                 acc = vec3(real(0.0), real(0.0), real(0.0))
                 acc[m] = normal_acc
-            for k in range(3):
-                acc[k] = acc[k] - damping * wp.abs(acc[k]) * wp.sign(v[k])
-            v = v + dt * acc
+            v = v + dt * damped(acc, v, damping)
         elif planes.plate_contact[p] != PLATE_NONE:
             v = planes.plate_vector[p] * planes.factor[p]
         spin_acc = moment[p] * planes.factor[p] - torque[p]
         for k in range(3):
             spin_acc[k] = spin_axes[p][k] * spin_acc[k] / inertia[p][k]
-            spin_acc[k] = spin_acc[k] - damping * wp.abs(spin_acc[k]) * wp.sign(spin[k])
-        spin = spin + dt * spin_acc
+        spin = spin + dt * damped(spin_acc, spin, damping)
         v_out[p] = v
         spin_out[p] = spin
         rotation_out[p] = rotation_in[p] + dt * spin
@@ -220,8 +218,8 @@ class Plates:
         self.area = wp.array(m.plates.area, dtype=real, device=m.device)
         particles = m.constraint_particle.numpy()
         held = [particles[m.plates.plate_of == p] for p in range(m.plane_count)]
-        self._held_ranges = {p: (int(sum(map(len, held[:p]))), int(sum(map(len, held[: p + 1]))))
-                             for p in range(m.plane_count) if len(held[p])}  # fmt: skip
+        ends = np.cumsum([0, *map(len, held)])
+        self._held_ranges = {p: (int(ends[p]), int(ends[p + 1])) for p in range(m.plane_count) if len(held[p])}
         rows = np.concatenate([np.zeros(0, np.int32), *held]).astype(np.int32)
         self._held = wp.array(rows, dtype=wp.int32, device=m.device)
         """The particles each plate holds, plate after plate (``_held_ranges``), and their start positions."""
@@ -233,7 +231,7 @@ class Plates:
         self.torque.zero_()
         plate_forces, _ = _kernels(m.spec)
         launch(plate_forces, m.constraint_count,
-               [m.constraint_particle, self.plate_of, self.area, b.planes, *b._water_args(m.particle_material, pore),
+               [m.constraint_particle, self.plate_of, self.area, b.planes, *b.water_args(m.particle_material, pore),
                 state.particle_q, state.particle_stress, m.particle_origin, self.force, self.torque],
                m.device)  # fmt: skip
 

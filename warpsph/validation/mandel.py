@@ -3,8 +3,6 @@ consolidation phase and a dynamic saturated run from the undrained state (docs/m
 
 from __future__ import annotations
 
-from pathlib import Path
-
 import numpy as np
 
 from warpsph.validation.report import Check, Context, Outcome, case, figure, run_scene, shipped_scene
@@ -19,14 +17,14 @@ def mandel_scene(t_end: float, frames: int, dynamic: bool = False):
     """(the shipped scene to the time factor ``t_end`` with ``frames`` frames, its
     :class:`~warpsph.verification.Mandel` constants); ``dynamic``: a dynamic run from the closed form's
     undrained state (p(x, 0⁺) and its effective stress) in place of the consolidation phase."""
-    from warpsph.verification import mandel_constants, mandel_pressure
+    from warpsph.verification import mandel_constants, mandel_undrained_pressure
 
     scene = shipped_scene("mandel")
     m = mandel_constants(scene.materials["soil"])
     duration = t_end * HALF_WIDTH**2 / m.c
     scene.output.usd = False
     if dynamic:
-        p0 = mandel_pressure([0.0], HALF_WIDTH, FORCE, 0.0, m)[0]
+        p0 = mandel_undrained_pressure(HALF_WIDTH, FORCE, m)
         sigma = FORCE / HALF_WIDTH
         body = scene.bodies[0]
         body.pore_pressure = p0
@@ -40,16 +38,14 @@ def mandel_scene(t_end: float, frames: int, dynamic: bool = False):
     return scene.validate(), m
 
 
-def measured(out: Path, m, undrained_start: bool) -> list[tuple[float, float, float, float]]:
-    """(T, L2 of p over p(0, 0⁺), settlement [m], the closed form's) at each frame after the first. A run
-    from the undrained state adds the closed form's undrained settlement to its plate's displacement: its
-    start carries that state's stresses, not its displacement."""
-    from warpsph.io import load_results
-    from warpsph.verification import mandel_pressure, mandel_settlement
+def measured(results, m, undrained_start: bool) -> list[tuple[float, float, float, float]]:
+    """(T, L2 of p over p(0, 0⁺), settlement [m], the closed form's) at each frame after the first of a run's
+    ``results``. A run from the undrained state adds the closed form's undrained settlement to its plate's
+    displacement: its start carries that state's stresses, not its displacement."""
+    from warpsph.verification import mandel_pressure, mandel_settlement, mandel_undrained_pressure
 
-    results = load_results(out / "results.h5")
     x0 = results.frame(0)["position"]
-    p0 = mandel_pressure([0.0], HALF_WIDTH, FORCE, 0.0, m)[0]
+    p0 = mandel_undrained_pressure(HALF_WIDTH, FORCE, m)
     times, plate = results.series("plate_displacement_y")
     start = mandel_settlement(HEIGHT, HALF_WIDTH, FORCE, 0.0, m) if undrained_start else 0.0
     rows = []
@@ -62,13 +58,13 @@ def measured(out: Path, m, undrained_start: bool) -> list[tuple[float, float, fl
     return rows
 
 
-def centre_rise(out: Path, m) -> tuple[float, float]:
-    """(the centre's largest pore pressure as sampled, the closed form's peak), over p(0, 0⁺)."""
-    from warpsph.io import load_results
-    from warpsph.verification import mandel_pressure
+def centre_rise(results, m) -> tuple[float, float]:
+    """(the centre's largest pore pressure as sampled in a run's ``results``, the closed form's peak), over
+    p(0, 0⁺)."""
+    from warpsph.verification import mandel_pressure, mandel_undrained_pressure
 
-    _, centre = load_results(out / "results.h5").series("centre_pressure")
-    p0 = mandel_pressure([0.0], HALF_WIDTH, FORCE, 0.0, m)[0]
+    _, centre = results.series("centre_pressure")
+    p0 = mandel_undrained_pressure(HALF_WIDTH, FORCE, m)
     dense = np.linspace(0.01, 0.3, 59) * HALF_WIDTH**2 / m.c
     peak = max(mandel_pressure([0.0], HALF_WIDTH, FORCE, t, m)[0] for t in dense)
     return float(np.max(centre) / p0), float(peak / p0)
@@ -80,19 +76,17 @@ def _at(rows, tv: float):
 
 @case("mandel", "Mandel's problem", minutes=2.0)
 def mandel_case(context: Context) -> Outcome:
-    from warpsph.io import load_results
-    from warpsph.verification import mandel_pressure, mandel_settlement
+    from warpsph.verification import mandel_pressure, mandel_settlement, mandel_undrained_pressure
 
     t_end = 0.5 if context.quick else 1.0
     runs, rows, rises = {}, {}, {}
     for label, dynamic in (("consolidation", False), ("dynamic", True)):
         scene, m = mandel_scene(t_end, 20, dynamic)
         results, _ = run_scene(context, "mandel", label, scene)
-        out = context.runs / "mandel" / label
         runs[label] = results
-        rows[label] = measured(out, m, undrained_start=dynamic)
-        rises[label] = centre_rise(out, m)
-    p0 = mandel_pressure([0.0], HALF_WIDTH, FORCE, 0.0, m)[0]
+        rows[label] = measured(results, m, undrained_start=dynamic)
+        rises[label] = centre_rise(results, m)
+    p0 = mandel_undrained_pressure(HALF_WIDTH, FORCE, m)
 
     fig, (left, middle, right) = figure(1, 3, width=13.0)
     fine = np.linspace(0.0, HALF_WIDTH, 101)
@@ -108,7 +102,7 @@ def mandel_case(context: Context) -> Outcome:
     middle.plot(dense, [mandel_pressure([0.0], HALF_WIDTH, FORCE, t / m.c, m)[0] / p0 for t in dense], "k-", lw=1,
                 label="closed form")  # fmt: skip
     for label, marker in (("consolidation", "o"), ("dynamic", "-")):
-        t, centre = load_results(context.runs / "mandel" / label / "results.h5").series("centre_pressure")
+        t, centre = runs[label].series("centre_pressure")
         middle.plot(t * m.c, centre / p0, marker, ms=3, lw=0.8, label=f"{label}")
     middle.set(xlabel="T = c t / a²", ylabel="p(0, t) / p(0, 0⁺)", title="the centre (Mandel–Cryer rise)")
     middle.legend(loc="upper right")
