@@ -94,10 +94,14 @@ def plate_layout(plates: list, axes: list[int], on_plane: np.ndarray, points: np
             low = np.maximum(points[on, a] - np.where(lower >= 0, 0.5 * dx, 0.0), extent_lo[a])
             high = np.minimum(points[on, a] + np.where(upper >= 0, 0.5 * dx, 0.0), extent_hi[a])
             share *= np.clip(high - low, 0.0, dx) / dx
-        holds = on[share > 0.0]
+        # held: where the kernels put it under the plate (its start inside the grown extent), with some area
+        inside = np.all((points[on][:, along] >= layout.lo[k, along]) & (points[on][:, along] <= layout.hi[k, along]),
+                        axis=1)  # fmt: skip
+        held = inside & (share > 0.0)
+        holds = on[held]
         layout.plate_of[holds] = k
-        layout.area[holds] = share[share > 0.0] * dx ** (dim - 1)
-        weights = share[share > 0.0] * mass[holds]
+        layout.area[holds] = share[held] * dx ** (dim - 1)
+        weights = share[held] * mass[holds]
         layout.mass[k] = float(np.sum(weights))
         if not len(holds):
             continue
