@@ -76,3 +76,35 @@ def test_boards_compare_side_by_side(tmp_path, capsys):
     assert lines[0] == "| case | quantity | limit | defaults | artificial_viscosity = 0.1 |"
     assert lines[2].startswith("| patch_affine | largest change by the control | ≤ 1e-10 | 0 ✓ (")
     assert main(["--compare", str(tmp_path / "missing.json")]) == 2
+
+
+def test_force_at_rest_vanishes_in_the_geostatic_state_and_grows_with_the_departure_from_it():
+    """The board's force at rest on a block: with the exact geostatic stress (σ_yy = −ρg(H − y),
+    σ_xx = σ_zz = K₀σ_yy) no force is left unbalanced (the operators fit that linear field exactly);
+    with 1.01 times it, 0.01 of what the unstressed block leaves (the step is linear in the stress at
+    rest), which is most of its weight (the fixed base's particles do not fall)."""
+    from warpsph.bench.throughput import block_scene
+    from warpsph.builder import build
+    from warpsph.stability.tools import force_at_rest
+
+    scene = block_scene(400, 2)
+    model, state = build(scene, "cpu")
+    n = model.particle_count
+    mass = model.particle_mass.numpy()[:n]
+    weight = float(mass.sum()) * 9.81
+    unstressed = force_at_rest(model, state) / weight
+    q = state.particle_q.numpy()
+    density = float(mass[0]) / scene.simulation.dx**2
+    nu = next(iter(scene.materials.values())).poisson_ratio
+    stress = state.particle_stress.numpy()
+    sigma_yy = -density * 9.81 * (q[:n, 1].max() - q[:, 1])
+
+    def at(factor: float) -> float:
+        stress[:, 1, 1] = factor * sigma_yy
+        stress[:, 0, 0] = stress[:, 2, 2] = factor * nu / (1.0 - nu) * sigma_yy
+        state.particle_stress.assign(stress)
+        return force_at_rest(model, state) / weight
+
+    assert 0.9 < unstressed < 0.95 + 1e-12
+    assert at(1.0) < 1e-12
+    assert at(1.01) == pytest.approx(0.01 * unstressed, rel=1e-6)

@@ -167,3 +167,18 @@ def step_jacobian(scene, geometry: bool = False) -> np.ndarray:
         solver.step(state, out, 0.0, dt)
         jacobian[:, column] = (pack(out) - rest) / eps
     return jacobian
+
+
+def force_at_rest(model, state, t: float = 0.0) -> float:
+    """Σ_a m_a ‖a_a‖ [N/m or N] over the real particles of one undamped, unfiltered step of ``state``
+    with every velocity set to zero: the force their momentum balance leaves unbalanced in that
+    configuration and stress, which the unbalanced-force ratio of a damped phase (measured after the
+    velocity filter) does not see (docs/stability.md, *What holds the 2D equilibrium floor*)."""
+    at_rest, out = model.state(), model.state()
+    at_rest.assign(state)
+    at_rest.particle_v.zero_()
+    dt = model.scene.time_step
+    Solver(model).step(at_rest, out, t, dt)
+    n = model.particle_count
+    dv = out.particle_v.numpy()[:n].astype(np.float64)
+    return float(np.sum(model.particle_mass.numpy()[:n] * np.linalg.norm(dv, axis=1)) / dt)
