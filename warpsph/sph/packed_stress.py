@@ -1,8 +1,8 @@
 """A symmetric stress stored by its independent entries where a kernel's scratch holds it: (xx, yy, zz,
 xy) in 1D and 2D, whose out-of-plane shears are zero, and (xx, yy, zz, xy, xz, yz) in 3D.
-``as_tensor`` reads a stored entry (or a full mat33) as a mat33, ``as_stored(s, like)`` writes s in
-the form of ``like``; both are overloaded on the types (either precision), so a generic kernel takes
-either array."""
+``as_tensor`` reads a stored entry (or a full mat33) as a mat33, ``as_stored(s, like)`` writes s (a mat33,
+or an entry already in that form) in the form of ``like``; both are overloaded on the types (either
+precision), so a generic kernel takes either array."""
 
 import warp as wp
 
@@ -76,3 +76,23 @@ def as_stored(s: wp.mat33f, like: vec6f):  # noqa: F811
 @wp.func
 def as_stored(s: wp.mat33d, like: vec6d):  # noqa: F811
     return vec6d(s[0, 0], s[1, 1], s[2, 2], s[0, 1], s[0, 2], s[1, 2])
+
+
+@wp.func
+def as_stored(s: wp.vec4f, like: wp.vec4f):  # noqa: F811
+    return s
+
+
+@wp.func
+def as_stored(s: wp.vec4d, like: wp.vec4d):  # noqa: F811
+    return s
+
+
+@wp.func
+def as_stored(s: vec6f, like: vec6f):  # noqa: F811
+    return s
+
+
+@wp.func
+def as_stored(s: vec6d, like: vec6d):  # noqa: F811
+    return s

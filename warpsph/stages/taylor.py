@@ -161,30 +161,30 @@ def taylor_kernels(spec: Spec):
         F⁻ᵀ = (I + mid G)⁻¹ (mid = 0: at tⁿ); the pore pressure's stays at tⁿ (the full step's is the
         lagged pⁿ)."""
         v = vec3(zero, zero, zero)
-        s = mat33(zero)
         G = mat33(zero)
-        # ∂σ′/∂x_k on the configuration at tⁿ, one matrix per axis k
-        ds0 = mat33(zero)
-        ds1 = mat33(zero)
-        ds2 = mat33(zero)
         surface_sum = vec3(zero, zero, zero)
         share = zero  # Σ_b V_b ψ_b(x): the point's weight in the sources' fits, integrated
         p = wp.float64(0.0)
         grad_p = vec3(zero, zero, zero)
+        # the sums run over the stress's independent entries (xx, yy, zz, xy in 1D and 2D, with xz, yz in 3D)
+        s_p = stored_stress()
+        ds0_p = stored_stress()
+        ds1_p = stored_stress()
+        ds2_p = stored_stress()
         for k in range(start, end):
             b = nbr[k]
             vol = vols[b]
             psi, phi = fit_weights(xs[b] - x, h, c, inv_den, Minv)
-            sigma = as_tensor(sigmas[b])
+            sigma = as_stored(sigmas[b], stored_zero)
             v += (vol * psi) * vs[b]
-            s += (vol * psi) * sigma
+            s_p += (vol * psi) * sigma
             G += outer(vol * phi, vs[b])
             # φ's component along an unused axis is exactly zero, so is that axis's gradient
             if wp.static(used_x):
-                ds0 += (vol * phi[0]) * sigma
-            ds1 += (vol * phi[1]) * sigma
+                ds0_p += (vol * phi[0]) * sigma
+            ds1_p += (vol * phi[1]) * sigma
             if wp.static(used_z):
-                ds2 += (vol * phi[2]) * sigma
+                ds2_p += (vol * phi[2]) * sigma
             if wp.static(pore_water):
                 p += wp.float64(vol * psi) * ps[b]
                 grad_p += (vol * real(ps[b])) * phi
@@ -193,6 +193,11 @@ def taylor_kernels(spec: Spec):
                 surface_sum += vol * (psi_b * full_vector(src.e[b]) - phi_b)
                 if per_share:
                     share += vol * psi_b
+        s = as_tensor(s_p)
+        # ∂σ′/∂x_k on the configuration at tⁿ, one matrix per axis k
+        ds0 = as_tensor(ds0_p)
+        ds1 = as_tensor(ds1_p)
+        ds2 = as_tensor(ds2_p)
         G -= outer(e, v)
         # gradients at tⁿ → on the configuration x + mid·v: ∂/∂x′_m = A[m,k] ∂/∂x_k, A = F⁻ᵀ
         A = wp.inverse(wp.identity(n=3, dtype=real) + mid * G)
