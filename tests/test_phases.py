@@ -387,3 +387,16 @@ def test_a_load_is_checked_in_the_phase_it_acts_in():
     scene.phases.append(Phase("load", kind="equilibrium", activate=["stray"], tolerance=1e-2, max_steps=40))
     with pytest.raises(SceneError, match=r"loads\.stray\.position: no particle lies on this traction face"):
         plan(scene.validate(), "cpu", timed=False)
+
+
+def test_a_partial_traction_load_scales_the_ratio_by_the_particles_it_loads(tmp_path):
+    """The unbalanced-force ratio's load is a traction's resultant over the particles inside its
+    extent: a strip over a quarter of a layer's top loads 4 of the face's 13 particles."""
+    from warpsph.phases.equilibrium import loaded_particles
+    from warpsph.runner import Run
+    from warpsph.stability.water import strip_loaded_layer
+
+    model = Run(strip_loaded_layer(), tmp_path).model
+    strip = model.plane_names.index("strip")
+    on_face = np.any(model.constraint_planes.numpy().reshape(-1, 3) == strip, axis=1)
+    assert loaded_particles(model, strip) == 4 and np.count_nonzero(on_face) == 13

@@ -45,10 +45,9 @@ class Equilibrium(Calculation):
         moment as a force at its radius of gyration)."""
         m = self.run.model
         weight = float(np.sum(m.particle_mass.numpy()[: m.particle_count])) * float(np.linalg.norm(m.gravity))
-        counts = np.bincount(m.constraint_planes.numpy().reshape(-1, 3).ravel() + 1, minlength=m.plane_count + 1)
         kinds, vectors = m.plane_kind.numpy(), m.plane_vector.numpy()
-        loads = [(counts[p + 1] * m.dx ** (m.spec.dim - 1) * float(np.linalg.norm(vectors[p])), m.plane_functions[p])
-                 for p in range(m.plane_count) if kinds[p] == PLANE_TRACTION]  # fmt: skip
+        loads = [(loaded_particles(m, p) * m.dx ** (m.spec.dim - 1) * float(np.linalg.norm(vectors[p])),
+                  m.plane_functions[p]) for p in range(m.plane_count) if kinds[p] == PLANE_TRACTION]  # fmt: skip
         loads += [(float(np.linalg.norm(ld.force)), ld.time_function) for ld in self.run.phase_scene.loads
                   if ld.kind == "force" or (ld.kind == "plate" and ld.drive == "force")]  # fmt: skip
         plates = m.plates
@@ -95,6 +94,17 @@ class Equilibrium(Calculation):
                 return converged, ratio
             if k % CHECK_EVERY == 0:  # where a checkpoint resumes bit-identical (a safety trial keeps none)
                 run.stop_if_interrupted(checkpoint=output)
+
+
+def loaded_particles(model, p: int) -> int:
+    """The particles on traction plane ``p`` whose start lies inside its extent: those it loads (the
+    kernels' ``traction_here``)."""
+    on = np.any(model.constraint_planes.numpy().reshape(-1, 3) == p, axis=1)
+    start = model.particle_origin.numpy()[model.constraint_particle.numpy()[on]]
+    lo, hi = model.plane_extent_lo.numpy()[p], model.plane_extent_hi.numpy()[p]
+    across = np.arange(3) != int(model.plane_axis.numpy()[p])
+    inside = np.all(((start >= lo) & (start <= hi)) | ~across, axis=1)
+    return int(np.count_nonzero(inside))
 
 
 def largest_displacement(positions: wp.array, start: np.ndarray) -> float:
