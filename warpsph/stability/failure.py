@@ -76,7 +76,7 @@ def slope_equilibrium(options: Mapping[str, object]) -> list[Measure]:
             Measure("base reaction / weight − 1", abs(signed), SLOPE_REACTION_LIMIT,
                     detail=f"{signed:+.4g} (reaction {reaction[-1]:.6g} N/m)"),
             Measure("real particles' force at rest / weight", unbalanced, SLOPE_TOLERANCE,
-                    detail="one undamped, unfiltered step from the state reached with every velocity zero")]  # fmt: skip
+                    detail="one undamped, unfiltered step from the state reached, every velocity zero")]  # fmt: skip
 
 
 @case("prandtl_footing", "Prandtl's footing pushed to 40 mm at Δx = 0.1 m")
