@@ -11,6 +11,7 @@ import warp as wp
 from warpsph.model import PLANE_TRACTION
 from warpsph.phases.base import CHECK_EVERY, Calculation, Stopped
 from warpsph.phases.staging import CONVERGED, NOT_CONVERGED
+from warpsph.scene import Region
 
 
 class Equilibrium(Calculation):
@@ -101,10 +102,8 @@ def loaded_particles(model, p: int) -> int:
     kernels' ``traction_here``)."""
     on = np.any(model.constraint_planes.numpy().reshape(-1, 3) == p, axis=1)
     start = model.particle_origin.numpy()[model.constraint_particle.numpy()[on]]
-    lo, hi = model.plane_extent_lo.numpy()[p], model.plane_extent_hi.numpy()[p]
-    across = np.arange(3) != int(model.plane_axis.numpy()[p])
-    inside = np.all(((start >= lo) & (start <= hi)) | ~across, axis=1)
-    return int(np.count_nonzero(inside))
+    extent = Region(model.plane_extent_lo.numpy()[p], model.plane_extent_hi.numpy()[p])  # as built, grown
+    return int(np.count_nonzero(extent.contains_on_face(start, int(model.plane_axis.numpy()[p]))))
 
 
 def largest_displacement(positions: wp.array, start: np.ndarray) -> float:
