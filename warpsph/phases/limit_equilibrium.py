@@ -37,8 +37,8 @@ class Ground:
     """A 2D model's particles in vertical strips ``width`` [m] wide, ``SUBSLICES`` to a column of
     particles: the slices of every circle. Per strip, ascending: the particles' heights [m], the weight
     at and above each (one entry more, the last 0) [N/m], and each particle's cohesion [Pa], tan φ′ and pore pressure
-    [Pa] (compression positive, suction taken as 0); per strip, the pressure of free water standing on
-    it [Pa] (a reservoir: the top particle's pore pressure beyond a whole cell of water)."""
+    [Pa] (compression positive, suction taken as 0); per strip, its surface's height [m] and the pressure
+    of free water standing on it [Pa] (a reservoir)."""
 
     x: np.ndarray
     width: float
@@ -50,7 +50,9 @@ class Ground:
     cohesion: list
     tan_phi: list
     pore: list
+    surface: np.ndarray
     ponded: np.ndarray
+    water_unit_weight: float
 
     @property
     def bottom(self) -> float:
@@ -62,13 +64,16 @@ class Ground:
 
 
 def ground(position: np.ndarray, weight: np.ndarray, cohesion: np.ndarray, tan_phi: np.ndarray,
-           pore_pressure: np.ndarray | None, width: float, water_unit_weight: float = 9.81e3) -> Ground:  # fmt: skip
+           pore_pressure: np.ndarray | None, width: float, water_unit_weight: float = 9.81e3,
+           free_water=None) -> Ground:  # fmt: skip
     """The columns of particles at ``position`` (N,3) [m] (x across, y up) with ``weight`` (N,) [N/m],
     ``cohesion`` (N,) [Pa] (inf: a body that does not yield), ``tan_phi`` (N,) and ``pore_pressure``
-    (N,) [Pa] or None, ``width`` the particle spacing [m]; ``water_unit_weight`` ρ_w g [N/m³]."""
+    (N,) [Pa] or None, ``width`` the particle spacing [m]; ``water_unit_weight`` ρ_w g [N/m³];
+    ``free_water(x, y)`` the pressure [Pa] of free water standing on the ground's surface at x, y (C,)
+    [m], or None where there is none."""
     column = np.round((position[:, 0] - position[:, 0].min()) / width).astype(np.int64)
     pore = np.zeros(len(position)) if pore_pressure is None else np.maximum(pore_pressure, 0.0)
-    xs, ys, above, weights, cs, ts, us, ponded = [], [], [], [], [], [], [], []
+    xs, ys, above, weights, cs, ts, us, tops = [], [], [], [], [], [], [], []
     strips = (np.arange(SUBSLICES) + 0.5) / SUBSLICES - 0.5
     order = np.lexsort((position[:, 1], column))  # by column, then upwards
     starts = np.flatnonzero(np.diff(column[order], prepend=column[order][0] - 1))
@@ -82,9 +87,11 @@ def ground(position: np.ndarray, weight: np.ndarray, cohesion: np.ndarray, tan_p
             cs.append(cohesion[rows].astype(float))
             ts.append(tan_phi[rows].astype(float))
             us.append(pore[rows].astype(float))
-            ponded.append(max(float(pore[rows[-1]]) - water_unit_weight * width, 0.0))
-    return Ground(np.array(xs), float(width) / SUBSLICES, float(width), ys, above, weights, cs, ts, us,
-                  np.array(ponded))  # fmt: skip
+            tops.append(float(position[rows[-1], 1]))
+    xs, surface = np.array(xs), np.array(tops) + 0.5 * width
+    ponded = np.zeros(len(xs)) if free_water is None else np.maximum(free_water(xs, surface), 0.0)
+    return Ground(xs, float(width) / SUBSLICES, float(width), ys, above, weights, cs, ts, us, surface,
+                  ponded, float(water_unit_weight))  # fmt: skip
 
 
 @dataclass(frozen=True)
@@ -99,6 +106,11 @@ class Slices:
     cohesion: np.ndarray
     tan_phi: np.ndarray
     pore: np.ndarray
+    thrust: np.ndarray
+    """Free water's horizontal thrust on the sliding mass's end slices [N/m], positive in the
+    direction of sliding."""
+    thrust_moment: np.ndarray
+    """That thrust's moment about the centre in the sense of sliding, over the radius [N/m]."""
     width: float
     valid: np.ndarray
     """(K,): the circle cuts at least ``FEWEST_SLICES`` columns, stays above the model's bottom and
@@ -111,9 +123,11 @@ EVERYWHERE = (-math.inf, math.inf, -math.inf)
 
 def slices(g: Ground, circles: np.ndarray, region: tuple[float, float, float] = EVERYWHERE) -> Slices:
     """The slices of ``circles`` (K,3: centre x, centre y, radius [m]) over the columns of ``g``: each
-    column's soil above the circle's lower arc, its base where the arc crosses the column's middle. A
-    circle is valid only where the columns it cuts lie within ``region`` (x from, x to, lowest y [m]):
-    their x between the first two, their bases at or above the third."""
+    column's soil above the circle's lower arc and the free water on it, its base where the arc crosses
+    the column's middle; free water beside the sliding mass (each run of cut slices) pushes on its end
+    slices, hydrostatic from the water's level down to where the arc ends. A circle is valid only where
+    the columns it cuts lie within ``region`` (x from, x to, lowest y [m]): their x between the first
+    two, their bases at or above the third."""
     xc, yc, r = (circles[:, i : i + 1] for i in range(3))
     dx = g.x[None, :] - xc
     inside = np.abs(dx) < r
@@ -137,19 +151,32 @@ def slices(g: Ground, circles: np.ndarray, region: tuple[float, float, float] = 
         outside |= (w > 0.0) & ((g.x[j] < region[0]) | (g.x[j] > region[1]) | (b < region[2] - 1e-9 * g.cell))
     sin = np.clip(dx / r, -1.0, 1.0)
     cut_columns = weight > 0.0
-    driving = np.sum(weight * sin, axis=1, keepdims=True)
-    sin = np.where(driving < 0.0, -sin, sin)  # α positive where the base rises in the sliding direction
+    weight += np.where(cut_columns, g.ponded * g.width, 0.0)
+    edge = np.pad(cut_columns, ((0, 0), (1, 1)))
+    level = g.surface + g.ponded / g.water_unit_weight
+    ends, moment = np.zeros((k_count, c_count)), np.zeros((k_count, c_count))
+    for side, outer in ((1.0, ~edge[:, :-2]), (-1.0, ~edge[:, 2:])):  # each run's left end, then its right
+        dx_side = dx - 0.5 * side * g.width  # the run's end: its end slice's outer side, where its arc ends
+        exit_ = yc - np.sqrt(np.maximum(r * r - dx_side * dx_side, 0.0))
+        depth = np.where(cut_columns & outer & (g.ponded > 0.0), np.maximum(level - exit_, 0.0), 0.0)
+        push = side * 0.5 * g.water_unit_weight * depth**2  # the water's thrust along +x, down to the arc
+        ends += push
+        moment += (exit_ + depth / 3.0 - yc) * push / r  # clockwise about the centre, over r
+    direction = np.where(np.sum(weight * sin + moment, axis=1, keepdims=True) < 0.0, -1.0, 1.0)
+    sin = direction * sin  # α positive where the base rises in the sliding direction
     inside_sides = ~cut_columns[:, 0] & ~cut_columns[:, -1]  # the arc leaves through the surface, not a side
     valid = (np.sum(cut_columns, axis=1) >= FEWEST_SLICES * SUBSLICES) & ~below_bottom & inside_sides & ~outside
-    return Slices(weight, sin, np.sqrt(1.0 - sin * sin), cohesion, tan_phi, pore, g.width, valid)
+    return Slices(weight, sin, np.sqrt(1.0 - sin * sin), cohesion, tan_phi, pore, -direction * ends, direction * moment,
+                  g.width, valid)  # fmt: skip
 
 
 def bishop(s: Slices, iterations: int = 100) -> np.ndarray:
     """Bishop's simplified factor of safety of each circle (K,): moment equilibrium about the centre,
-    interslice forces horizontal, F = Σ (c′b + (W − ub) tan φ′)/m_α / Σ W sin α; inf where a circle is
-    not valid or a slice's m_α falls below ``SMALLEST_M_ALPHA``."""
+    interslice forces horizontal, F = Σ (c′b + (W − ub) tan φ′)/m_α / (Σ W sin α + M_w/R), M_w the free
+    water's end thrusts' moment; inf where a circle is not valid or a slice's m_α falls below
+    ``SMALLEST_M_ALPHA``."""
     cut = s.weight > 0.0
-    driving = np.sum(s.weight * s.sin, axis=1)
+    driving = np.sum(s.weight * s.sin + s.thrust_moment, axis=1)
     resisting = np.where(cut, s.cohesion * s.width + np.maximum(s.weight - s.pore * s.width, 0.0) * s.tan_phi, 0.0)
     factor = np.ones(len(driving))
     ok = s.valid & (driving > 0.0)
@@ -169,21 +196,22 @@ def bishop(s: Slices, iterations: int = 100) -> np.ndarray:
 def spencer(s: Slices, k: int, near: float) -> tuple[float, float]:
     """Spencer's factor of safety of circle ``k`` and the inclination θ [rad] of its interslice forces:
     force and moment equilibrium together, the forces parallel. Each slice's interslice resultant is
-    Q = ((c′b/cos α + (W cos α − ub/cos α) tan φ′)/F − W sin α) / m_θ,
-    m_θ = cos(α − θ) + sin(α − θ) tan φ′/F;
-    ΣQ = 0 (forces) and ΣQ cos(α − θ) = 0 (moments about the centre) fix F and θ, F sought within a
-    factor 2 of ``near`` (Bishop's) where every m_θ > 0, θ within ±1.2 rad. (nan, nan) where none is
-    found."""
+    Q = ((c′b/cos α + (W cos α − H sin α − ub/cos α) tan φ′)/F − W sin α − H cos α) / m_θ,
+    m_θ = cos(α − θ) + sin(α − θ) tan φ′/F, H free water's thrust on an end slice;
+    ΣQ = 0 (forces) and ΣQ cos(α − θ) = M_w/R − ΣH cos α (moments about the centre, the thrusts acting
+    above the bases) fix F and θ, F sought within a factor 2 of ``near`` (Bishop's) where every m_θ > 0,
+    θ within ±1.2 rad, the first where both are continuous in θ. (nan, nan) where none is found."""
     cut = s.weight[k] > 0.0
-    w, sin, cos, c, t, u = (a[k][cut] for a in (s.weight, s.sin, s.cos, s.cohesion, s.tan_phi, s.pore))
+    w, sin, cos, c, t, u, h = (a[k][cut] for a in (s.weight, s.sin, s.cos, s.cohesion, s.tan_phi, s.pore, s.thrust))
     alpha, b = np.arctan2(sin, cos), s.width
+    lifted = float(np.sum(s.thrust_moment[k]) - np.sum(h * cos))  # the thrusts' moment beyond that at the bases
 
     def sums(factor: float, theta: float) -> tuple[float, float]:
         m = np.cos(alpha - theta) + np.sin(alpha - theta) * t / factor
         if np.any(m <= 0.0):
             return math.nan, math.nan
-        q = ((c * b / cos + (w * cos - u * b / cos) * t) / factor - w * sin) / m
-        return float(np.sum(q)), float(np.sum(q * np.cos(alpha - theta)))
+        q = ((c * b / cos + (w * cos - h * sin - u * b / cos) * t) / factor - w * sin - h * cos) / m
+        return float(np.sum(q)), float(np.sum(q * np.cos(alpha - theta))) - lifted
 
     def solve(f, start: float) -> float:
         """A root of ``f`` by the secant method from ``start`` and 1.01 ``start``; nan where it leaves
@@ -208,15 +236,18 @@ def spencer(s: Slices, k: int, near: float) -> tuple[float, float]:
     grid = np.linspace(-1.2, 1.2, 25)
     gaps = [forces(th) - moments(th) for th in grid]
     for a, ga, z, gz in zip(grid, gaps, grid[1:], gaps[1:]):
-        if np.isfinite(ga) and np.isfinite(gz) and ga * gz <= 0.0:
-            for _ in range(40):
-                mid = 0.5 * (a + z)
-                gm = forces(mid) - moments(mid)
-                if not np.isfinite(gm):
-                    return math.nan, math.nan
-                a, ga, z = (a, ga, mid) if ga * gm <= 0.0 else (mid, gm, z)
-            theta = 0.5 * (a + z)
-            return moments(theta), theta
+        if not (np.isfinite(ga) and np.isfinite(gz) and ga * gz <= 0.0):
+            continue
+        for _ in range(40):
+            mid = 0.5 * (a + z)
+            gm = forces(mid) - moments(mid)
+            if not np.isfinite(gm):
+                break
+            a, ga, z = (a, ga, mid) if ga * gm <= 0.0 else (mid, gm, z)
+        theta = 0.5 * (a + z)
+        factor = moments(theta)
+        if abs(forces(theta) - factor) <= 1e-6 * abs(factor):  # a root, not a jump between two branches
+            return factor, theta
     return math.nan, math.nan
 
 
@@ -239,10 +270,7 @@ def critical_circle(g: Ground, region: tuple[float, float, float] = EVERYWHERE) 
     heights above it, across its width) and radii whose arcs reach from its top to its bottom, refined
     ``REFINEMENTS`` times around the best, and Spencer's factor on it; with ``region`` (x from, x to,
     lowest y [m]) the centres span its width and the circles are those whose sliding mass lies within it
-    (:func:`slices`). None where no circle cuts the ground validly, or where free water stands on it (a
-    reservoir's thrust on the slope is not taken)."""
-    if np.any(g.ponded > 0.0):
-        return None
+    (:func:`slices`). None where no circle cuts the ground validly."""
     left, right = max(float(g.x.min()), region[0]), min(float(g.x.max()), region[1])
     height = g.top - max(g.bottom, region[2])
     if not (left < right and height > 0.0):

@@ -26,6 +26,7 @@ from warpsph.phases.search import FactorSearch, reduced_strength
 from warpsph.phases.staging import CONVERGED, NOT_CONVERGED
 from warpsph.scene import FAILURE_DISPLACEMENT
 from warpsph.stages.energy import energy_unit
+from warpsph.stages.surface_water import free_water
 
 
 STANDS, FAILS, UNDECIDED = 1, 0, -1
@@ -319,8 +320,10 @@ class SafetyAnalysis(Equilibrium):
             g_norm = float(np.linalg.norm(g))
             weight = m.particle_mass.numpy()[:n].astype(float) * g_norm
             where = self.phase.slip_region
+            reservoirs = [] if m.pore is None else m.pore.reservoirs
+            surface = free_water(reservoirs, m.pore.surface_water.level.numpy(), water * g_norm) if reservoirs else None
             circle = critical_circle(ground(fields["position"], weight, strengths[material, 0], strengths[material, 1],
-                                            fields.get("pore_pressure"), m.dx, water * g_norm),
+                                            fields.get("pore_pressure"), m.dx, water * g_norm, surface),
                                      (where.min[0], where.max[0], where.min[1]))  # fmt: skip
         if circle is None:
             record.limit_equilibrium = [math.nan] * 5

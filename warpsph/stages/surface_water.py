@@ -90,6 +90,20 @@ def wetted_regions(reservoirs: list, positions: np.ndarray, surface: np.ndarray,
     return masks
 
 
+def free_water(reservoirs: list, level: np.ndarray, unit_weight: float):
+    """The pressure [Pa] of ``reservoirs`` at ``level`` (R,) [m] on points (x, y) (each (C,) [m]) of a 2D
+    model's surface, the deepest reservoir's where regions overlap (as :func:`reservoir_pressure`)."""
+
+    def pressure(x: np.ndarray, y: np.ndarray) -> np.ndarray:
+        points = np.stack([x, y, np.zeros_like(x)], axis=1)
+        p = np.zeros(len(points))
+        for reservoir, height in zip(reservoirs, level):
+            p = np.where(reservoir.region.contains(points), np.maximum(p, unit_weight * (height - y)), p)
+        return p
+
+    return pressure
+
+
 def levels(reservoirs: list, t: float) -> np.ndarray:
     """Each reservoir's level at time ``t`` of its phase [m]."""
     return np.array([r.level * r.time_function(t) for r in reservoirs] or [0.0])
