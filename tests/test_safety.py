@@ -232,6 +232,27 @@ def test_a_trial_whose_energy_falls_while_it_moves_is_not_collapsing():
     assert (k, judge.why) == (1200, CAPPED)
 
 
+def first_standing(displacement, steps: int = 4000, limit: float = 0.1) -> int:
+    """The first check at which a judge fed ``displacement(k)`` [m], the ratio always below the tolerance,
+    lets the trial stand (-1: none within ``steps``)."""
+    judge = TrialJudge(np.zeros((2, 3)), limit, steps)
+    for k in range(CHECK_EVERY, steps + 1, CHECK_EVERY):
+        if judge.settled(True, Positions(displacement(k)), k):
+            return k
+    return -1
+
+
+def test_a_trial_stands_only_once_it_is_at_rest():
+    """A mass sliding at a steady speed has little unbalanced force: with the ratio below the tolerance
+    throughout, it does not stand; one that slows down to a creep below a tenth of its first speed
+    stands, within a window of 10 % of its steps (at least 200) of slowing; one that barely moves stands
+    once a window has passed."""
+    assert first_standing(lambda k: 2e-5 * k) == -1
+    slowed = first_standing(lambda k: 0.01 * (1 - np.exp(-k / 100)) + 1e-7 * k)
+    assert 400 <= slowed <= 700
+    assert first_standing(lambda k: 1e-9 * k) == 200
+
+
 @pytest.mark.parametrize("change, key, words", [
     ({"factor_tolerance": 0.0}, "phases.safety.factor_tolerance", "must be"),
     ({"factor_max": 0.5}, "phases.safety.factor_max", "must be"),

@@ -63,8 +63,9 @@ class Equilibrium(Calculation):
         """Damped steps from step ``first`` until the unbalanced-force ratio falls below the phase's
         tolerance (True) or its step cap is reached (False); also the last ratio. ``output``: write
         frames and checkpoints at their cadence (a safety trial writes its last frame only).
-        ``judge(positions, k, kinetic energy)``: in place of the step cap, called at each check that has
-        not converged, True where the steps end (a safety trial's :class:`~warpsph.phases.safety.TrialJudge`)."""
+        ``judge``: a safety trial's :class:`~warpsph.phases.safety.TrialJudge`, whose ``settled`` decides
+        where the ratio's fall ends the steps and which, called as ``judge(positions, k, kinetic energy)``
+        in place of the step cap at each check that has not converged, is True where the steps end."""
         run, phase = self.run, self.phase
         frame_every, ck_every = run.cadence(True)
         ratio = run.loop.get("ratio", math.inf)
@@ -80,6 +81,8 @@ class Equilibrium(Calculation):
                 run.results.append_series("unbalanced_force_ratio", run.step_index, run.time, ratio)
                 run.results.append_series("kinetic_energy", run.step_index, run.time, self.kinetic_energy)
                 converged = ratio < phase.tolerance
+                if judge is not None:  # a safety trial stands where it also stays at rest (TrialJudge.settled)
+                    converged = judge.settled(converged, run.state.particle_q, k)
                 if not converged and judge is None:
                     capped = k >= phase.max_steps
                 elif not converged:

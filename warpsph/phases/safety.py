@@ -3,6 +3,7 @@ round in turn or at once on Dask (docs/scenes.md, *Phases*)."""
 
 from __future__ import annotations
 
+import bisect
 import contextlib
 import copy
 import math
@@ -33,7 +34,7 @@ STANDS, FAILS, UNDECIDED = 1, 0, -1
 """A trial's outcome, as the second column of ``/phases/trials/<name>`` and the frame attribute ``outcome``."""
 CONVERGED_WHY, DISPLACED, COLLAPSING, RAN_AWAY, CAPPED = range(5)
 """Why a trial stands, fails or is undecided (the last column of ``/phases/trials/<name>``), :data:`WHY`."""
-WHY = ("its ratio fell below the tolerance", "it moved past the failure displacement",
+WHY = ("its ratio fell below the tolerance and it stayed at rest", "it moved past the failure displacement",
        "collapsing: its displacement and kinetic energy stopped slowing down", "it ran away (the run guard stopped it)",
        "still slowing down at its extended cap")
 """What each of the codes above says, in a trial's line of the run's output."""
@@ -134,9 +135,9 @@ def trial_lines(trials, dim: int) -> list[str]:
 
 
 class TrialJudge:
-    """Decides, at each check of a safety trial that has not converged, whether it has failed or must go
-    on (docs/scenes.md, *Phases*): it fails once a particle has moved farther than ``limit`` [m] from
-    ``start`` (N,3), or when, at its step cap ``cap``, it is collapsing: over the cap's last quarter the
+    """Decides whether a safety trial stands (:meth:`settled`) and, at each check at which it does not,
+    whether it has failed or must go on (docs/scenes.md, *Phases*): it fails once a particle has moved
+    farther than ``limit`` [m] from ``start`` (N,3), or when, at its step cap ``cap``, it is collapsing: over the cap's last quarter the
     largest displacement grew by at least ``SLOWING`` times what it grew over the quarter before (and by
     more than ``MOVING`` of the limit), while the mean kinetic energy stayed at ``SLOWING`` times the
     quarter before's or more. A trial that is still slowing down at its cap is extended by the cap, at
@@ -145,6 +146,13 @@ class TrialJudge:
     SLOWING = 0.95
     MOVING = 1e-3
     EXTENSIONS = 2
+    REST_WINDOW = 0.1
+    """The window over which a trial's rate of displacement is measured, as a fraction of its steps (at
+    least ``REST_STEPS``) [-]."""
+    REST_STEPS = 200
+    REST_RATE = 0.1
+    """A trial whose ratio is below the tolerance is at rest where its displacement grows at less than this
+    fraction of the fastest it grew over any window before (or by less than ``MOVING`` of the limit) [-]."""
 
     def __init__(self, start: np.ndarray, limit: float, cap: int):
         self.start, self.limit, self.cap = start, limit, cap
@@ -153,10 +161,36 @@ class TrialJudge:
         self.energy: list[float] = []
         self.decision = cap  # the step of the next look at the cap
         self.why = CAPPED
+        self.steps: list[int] = [0]
+        self.path: list[float] = [0.0]
+        """The largest displacement [m] at each check, at ``steps``."""
+        self.fastest = 0.0
+        """The largest rate of displacement over a window so far [m/step]."""
+
+    def settled(self, balanced: bool, positions, k: int) -> bool:
+        """Whether the trial at step ``k`` of its own (``positions``) stands: its unbalanced-force ratio is
+        below the tolerance (``balanced``) and it is at rest, its largest displacement growing over the last
+        ``REST_WINDOW`` of its steps (at least ``REST_STEPS``) by less than ``MOVING`` of the limit or at
+        less than ``REST_RATE`` of the fastest rate of any window before. A mass sliding at a steady speed
+        has little unbalanced force, so the ratio alone would let it stand; the equilibrium's slow creep
+        (docs/method.md, *Known limits*) is a small fraction of the motion a reduced strength starts
+        (docs/scenes.md, *Phases*)."""
+        self.steps.append(k)
+        self.path.append(largest_displacement(positions, self.start))
+        window = max(self.REST_STEPS, self.REST_WINDOW * k)
+        if k < window:
+            return False
+        first = bisect.bisect_left(self.steps, k - window)
+        grown = self.path[-1] - self.path[first]
+        rate = grown / (k - self.steps[first])
+        resting = grown < self.MOVING * self.limit or rate < self.REST_RATE * self.fastest
+        self.fastest = max(self.fastest, rate)
+        return balanced and resting
 
     def __call__(self, positions, k: int, energy: float) -> bool:
         """True where the trial at step ``k`` of its own (``positions``, kinetic energy ``energy``) ends."""
-        self.moved.append(largest_displacement(positions, self.start))
+        settled_here = self.steps[-1] == k  # :meth:`settled` has just measured it
+        self.moved.append(self.path[-1] if settled_here else largest_displacement(positions, self.start))
         self.energy.append(energy)
         if self.moved[-1] > self.limit:
             self.why = DISPLACED
