@@ -22,12 +22,16 @@ def test_the_command_writes_the_cases_it_runs(tmp_path, capsys):
                  "--quick"]) == 0  # fmt: skip
     index = (tmp_path / "index.md").read_text()
     records = json.loads((tmp_path / "results.json").read_text())
-    assert [r["name"] for r in records] == ["undrained_limit", "wave_column"]
+    assert [r["name"] for r in records] == ["wave_column", "undrained_limit"]  # in the manual's order
     for record in records:
         assert (tmp_path / record["figure"]).stat().st_size > 10_000
         assert f"({record['figure']})" in index and record["command"] in index
         assert record["checks"] and all(c["holds"] for c in record["checks"])
     assert "| front speed [m/s] |" in index
+    assert main(["--out", str(tmp_path), "--runs", str(tmp_path / "runs"), "--only", "wave_column", "--quick"]) == 0
+    again = json.loads((tmp_path / "results.json").read_text())  # one case rerun, the other kept
+    assert [r["name"] for r in again] == ["wave_column", "undrained_limit"] and again[1] == records[1]
+    assert (tmp_path / "index.md").read_text().count("## ") == 2
 
 
 def test_the_committed_manual_covers_every_case():

@@ -137,10 +137,10 @@ def trial_lines(trials, dim: int) -> list[str]:
 class TrialJudge:
     """Decides whether a safety trial stands (:meth:`settled`) and, at each check at which it does not,
     whether it has failed or must go on (docs/scenes.md, *Phases*): it fails once a particle has moved
-    farther than ``limit`` [m] from ``start`` (N,3), or when, at its step cap ``cap``, it is collapsing: over the cap's last quarter the
-    largest displacement grew by at least ``SLOWING`` times what it grew over the quarter before (and by
-    more than ``MOVING`` of the limit), while the mean kinetic energy stayed at ``SLOWING`` times the
-    quarter before's or more. A trial that is still slowing down at its cap is extended by the cap, at
+    farther than ``limit`` [m] from ``start`` (N,3), or when, at its step cap ``cap``, it is collapsing:
+    over the cap's last quarter the largest displacement grew by at least ``SLOWING`` times what it grew
+    over the quarter before (and by more than ``MOVING`` of the limit), while the mean kinetic energy
+    stayed at ``SLOWING`` times the quarter before's or more. A trial that is still slowing down at its cap is extended by the cap, at
     most ``EXTENSIONS`` times; one that is slowing down at the last is undecided (:attr:`why`)."""
 
     SLOWING = 0.95
@@ -157,15 +157,20 @@ class TrialJudge:
     def __init__(self, start: np.ndarray, limit: float, cap: int):
         self.start, self.limit, self.cap = start, limit, cap
         self.quarter = max(1, cap // (4 * CHECK_EVERY))  # checks per quarter of the cap
-        self.moved: list[float] = []
         self.energy: list[float] = []
         self.decision = cap  # the step of the next look at the cap
         self.why = CAPPED
         self.steps: list[int] = [0]
-        self.path: list[float] = [0.0]
+        self.moved: list[float] = [0.0]
         """The largest displacement [m] at each check, at ``steps``."""
         self.fastest = 0.0
         """The largest rate of displacement over a window so far [m/step]."""
+
+    def measure(self, positions, k: int) -> None:
+        """The largest displacement at step ``k`` into :attr:`moved` (once a step)."""
+        if self.steps[-1] != k:
+            self.steps.append(k)
+            self.moved.append(largest_displacement(positions, self.start))
 
     def settled(self, balanced: bool, positions, k: int) -> bool:
         """Whether the trial at step ``k`` of its own (``positions``) stands: its unbalanced-force ratio is
@@ -175,13 +180,12 @@ class TrialJudge:
         has little unbalanced force, so the ratio alone would let it stand; the equilibrium's slow creep
         (docs/method.md, *Known limits*) is a small fraction of the motion a reduced strength starts
         (docs/scenes.md, *Phases*)."""
-        self.steps.append(k)
-        self.path.append(largest_displacement(positions, self.start))
+        self.measure(positions, k)
         window = max(self.REST_STEPS, self.REST_WINDOW * k)
         if k < window:
             return False
         first = bisect.bisect_left(self.steps, k - window)
-        grown = self.path[-1] - self.path[first]
+        grown = self.moved[-1] - self.moved[first]
         rate = grown / (k - self.steps[first])
         resting = grown < self.MOVING * self.limit or rate < self.REST_RATE * self.fastest
         self.fastest = max(self.fastest, rate)
@@ -189,8 +193,7 @@ class TrialJudge:
 
     def __call__(self, positions, k: int, energy: float) -> bool:
         """True where the trial at step ``k`` of its own (``positions``, kinetic energy ``energy``) ends."""
-        settled_here = self.steps[-1] == k  # :meth:`settled` has just measured it
-        self.moved.append(self.path[-1] if settled_here else largest_displacement(positions, self.start))
+        self.measure(positions, k)
         self.energy.append(energy)
         if self.moved[-1] > self.limit:
             self.why = DISPLACED

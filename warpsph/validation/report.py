@@ -184,7 +184,8 @@ def _machine() -> str:
 def write_manual(out: Path, names: list[str] | None = None, device: str = "cpu", quick: bool = False,
                  runs: Path = RUNS, echo: Callable[[str], None] = print) -> list[CaseResult]:
     """Run the cases ``names`` (all by default), their runs' results in ``runs``, and write their figures,
-    ``results.json`` and ``index.md`` into ``out``; the results."""
+    ``results.json`` and ``index.md`` into ``out``, keeping there the other cases an earlier run wrote;
+    the results of the cases run."""
     out = Path(out)
     out.mkdir(parents=True, exist_ok=True)
     context = Context(out, device, quick, Path(runs))
@@ -194,10 +195,28 @@ def write_manual(out: Path, names: list[str] | None = None, device: str = "cpu",
         result = run_case(CASES[name], context)
         echo(f"{name}: {result.held} of {len(result.checks)} checks hold ({result.seconds:.0f} s)")
         results.append(result)
-    _write_index(out, results, device, quick)
+    kept = {r.name: r for r in _read_results(out) if r.name in CASES} if names else {}
+    kept.update((r.name, r) for r in results)
+    manual = [kept[name] for name in CASES if name in kept]
+    _write_index(out, manual, device, quick)
     (out / "results.json").write_text(json.dumps(
         [{"name": r.name, "title": r.title, "seconds": r.seconds, "command": r.command, "resolution":
-          r.outcome.resolution, "figure": r.outcome.figure, "checks": r.checks} for r in results], indent=1))
+          r.outcome.resolution, "figure": r.outcome.figure, "summary": r.outcome.summary, "checks": r.checks}
+         for r in manual], indent=1))  # fmt: skip
+    return results
+
+
+def _read_results(out: Path) -> list[CaseResult]:
+    """The cases of the manual in ``out`` (its ``results.json``; none where it has none)."""
+    path = out / "results.json"
+    if not path.is_file():
+        return []
+    results = []
+    for record in json.loads(path.read_text()):
+        checks = [Check(**{k: v for k, v in c.items() if k != "holds"}) for c in record["checks"]]
+        outcome = Outcome(record["summary"], checks, record["resolution"], record["figure"])
+        results.append(CaseResult(record["name"], record["title"], outcome, record["seconds"], record["command"],
+                                  record["checks"]))  # fmt: skip
     return results
 
 

@@ -18,6 +18,9 @@ from warpsph.validation.report import Check, Context, Outcome, case, figure, shi
 GRIFFITHS_LANE, BISHOP = 1.4, 1.38
 """The 2:1 slope's factor of safety by Griffiths & Lane's finite elements and by Bishop and Morgenstern's charts."""
 SLOPE_OUTLINE = [(0, 0), (44, 0), (44, 12), (32, 12), (12, 2), (0, 2)]
+STRENGTH_REDUCTION_TO_BISHOP = 0.05
+"""How far a strength-reduction factor may lie from limit equilibrium on a homogeneous slope that fails
+on a circle (docs/scenes.md, *Limit equilibrium*)."""
 
 G = 9.81
 CU, RHO, H = 12e3, 2000.0, 2.0
@@ -82,6 +85,8 @@ class Search:
     particles: int
     steps: int
     dx: float
+    bishop: float
+    """Bishop's factor on the phase's particles at its start (nan: none)."""
 
     @property
     def moved(self) -> np.ndarray:
@@ -104,9 +109,11 @@ def search(scene, out: Path, device: str) -> Search:
     factor = failed.min() if len(failed) else math.nan
     k = next((k for k in range(len(results)) if results.frame_attrs(k).get("factor") == factor), -1)
     frame = results.frame(k)
-    return Search(float(summary.phases[-1]["criterion"]), summary.phases[-1]["outcome"], phase.factor_tolerance,
-                  phase.max_steps, trials, factor, frame["position"], frame["displacement"], summary.particles,
-                  summary.final_step, scene.simulation.dx)  # fmt: skip
+    record = summary.phases[-1]
+    bishop = (record.get("limit_equilibrium") or [math.nan])[0]
+    return Search(float(record["criterion"]), record["outcome"], phase.factor_tolerance, phase.max_steps, trials,
+                  factor, frame["position"], frame["displacement"], summary.particles, summary.final_step,
+                  scene.simulation.dx, float(bishop))  # fmt: skip
 
 
 def draw(context: Context, name: str, found: Search, outline, reference: float, tolerance: float,
@@ -154,21 +161,24 @@ def slope_factor_of_safety(context: Context) -> Outcome:
         scene.phases[-1].factor_tolerance = 0.05
     _lean_output(scene)
     found = search(scene.validate(), context.runs / "slope_factor_of_safety", context.device)
-    png = draw(context, "slope_factor_of_safety", found, SLOPE_OUTLINE, GRIFFITHS_LANE, 0.03,
-               "Griffiths & Lane, finite elements", height=3.6)  # fmt: skip
+    png = draw(context, "slope_factor_of_safety", found, SLOPE_OUTLINE, BISHOP, STRENGTH_REDUCTION_TO_BISHOP,
+               "Bishop & Morgenstern", height=3.6)  # fmt: skip
     sliding = found.position[found.moved > 0.5 * found.moved.max(), 0]
     summary = (
         "Griffiths & Lane's (1999, example 1) homogeneous slope, H = 10 m at 2:1, φ′ = 20°, c′ = 0.05 γH = 10 kPa, "
         "ψ = 0, on 2 m of the same soil over a rough base (scenes/slope_fos.toml without its run-out): the K0 "
         "procedure and gravity equilibrium, then strength reduction, c′ and tan φ′ divided by trial factors. "
         f"The search ({found.outcome}) brackets the factor of safety at {found.fos:.3f} ± {found.tolerance:g} in "
-        f"{len(found.trials)} trials, {found.fos / GRIFFITHS_LANE - 1:+.1%} from the finite elements' 1.4 and "
-        f"{found.fos / BISHOP - 1:+.1%} from Bishop and Morgenstern's 1.38. In the weakest trial that failed "
+        f"{len(found.trials)} trials, {found.fos / BISHOP - 1:+.1%} from Bishop and Morgenstern's 1.38 and "
+        f"{found.fos / GRIFFITHS_LANE - 1:+.1%} from the finite elements' 1.4; Bishop's method on the phase's own "
+        f"particles gives {found.bishop:.3f} ({found.fos / found.bishop - 1:+.1%}). In the weakest trial that failed "
         f"(F = {found.factor:.3f}) the particles that moved more than half the most reach from x = "
         f"{sliding.min():.1f} m to {sliding.max():.1f} m (the toe is at x = 12 m, the crest at 32 m)."
     )
-    checks = [Check("factor of safety", found.fos, GRIFFITHS_LANE, 0.03,
-                    source="Griffiths & Lane 1999, finite elements")]
+    checks = [Check("factor of safety", found.fos, BISHOP, STRENGTH_REDUCTION_TO_BISHOP,
+                    source="Bishop & Morgenstern's charts (Griffiths & Lane 1999)"),
+              Check("Bishop's factor on the particles", found.bishop, BISHOP, 0.03,
+                    source="Bishop & Morgenstern's charts (Griffiths & Lane 1999)")]  # fmt: skip
     return Outcome(summary, checks, found.resolution, png)
 
 
