@@ -35,8 +35,11 @@ def test_a_flood_lowers_the_dykes_factor_of_safety(tmp_path):
     page = TUTORIAL.read_text()
     flood = next(phase for phase in results.phases if phase["name"] == "flood_safety")["criterion"]
     for factor in (low, flood, high):
-        assert f"factor of safety {factor:.3f} ± 0.02" in page
-    assert (round(low, 2), round(flood, 2), round(high, 2)) == (2.27, 2.24, 2.14)
+        assert f"factor of safety {factor:.3f} ± " in page
+    assert (round(low, 2), round(flood, 2), round(high, 2)) == (1.89, 1.86, 1.79)
+    for phase in results.phases:  # limit equilibrium beside each factor, measured 5-9 % below it
+        if phase["kind"] == "safety":
+            assert 0.88 < phase["limit_equilibrium"][0] / phase["criterion"] < 0.97
     for name, p in zip(("low_water_seepage", "flood", "high_water_seepage"), under_slope):
         assert f"{name}: pore pressure under the landward slope {p / 1e3:.2f} kPa" in page
     assert f"river inflow at steady high water {-flows['discharge_river'][-1] * 86400:.2f} m³/day" in page
