@@ -18,7 +18,11 @@ SCENES = Path(__file__).resolve().parent.parent / "scenes"
 STEPS = 20
 """Steps of a dynamic phase (a scene without phases: of its one dynamic phase)."""
 EASY = 1e9
-"""The unbalanced-force ratio a shortened equilibrium or safety trial stands at: it ends at its first check."""
+"""The unbalanced-force ratio a shortened equilibrium or safety trial stands at: an equilibrium ends at its
+first check."""
+FAR = 1e9
+"""A shortened safety phase's failure displacement [m]: its trials never fail, and stand once the window
+over which a trial must be at rest has passed (``TrialJudge.REST_STEPS``)."""
 SHORTER = 100.0
 """A transient flow or consolidation phase runs this fraction of its duration."""
 COARSER = 5.0
@@ -28,9 +32,10 @@ SAFETY_FACTOR_MAX = 2.0
 
 
 def shortened(scene: Scene) -> Scene:
-    """``scene`` cut short, each of its phases run: a dynamic phase ``STEPS`` steps, an equilibrium
-    (a safety trial) to its first check, a transient flow or consolidation 1/``SHORTER`` of its duration
-    in two frames; frames every 5 steps of the explicit phases."""
+    """``scene`` cut short, each of its phases run: a dynamic phase ``STEPS`` steps, an equilibrium to
+    its first check, a safety trial to the end of the window over which it must be at rest, a transient
+    flow or consolidation 1/``SHORTER`` of its duration in two frames; frames every 5 steps of the
+    explicit phases."""
     out = copy.deepcopy(scene)
     if not out.phases:
         out.simulation.end_time = STEPS * scene.time_step
@@ -41,6 +46,8 @@ def shortened(scene: Scene) -> Scene:
         elif phase.kind in ("equilibrium", "safety"):
             phase.tolerance = EASY
             phase.factor_max = min(phase.factor_max, SAFETY_FACTOR_MAX)
+            if phase.kind == "safety":
+                phase.failure_displacement = FAR
         elif phase.kind in ("flow", "consolidation") and not phase.steady:
             phase.duration /= SHORTER
             phase.frames = 2
