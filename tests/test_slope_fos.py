@@ -28,3 +28,15 @@ def test_griffiths_lane_slope_factor_of_safety(tmp_path):
     assert safety["kind"] == "safety" and safety["outcome"] == "converged"
     assert safety["criterion"] == pytest.approx(safety["limit_equilibrium"][0], rel=0.05)
     assert safety["criterion"] == pytest.approx(1.38, rel=0.05)
+
+
+@pytest.mark.slow
+def test_doubling_the_step_cap_leaves_the_factor(tmp_path):
+    """The shipped scene at its Δx = 1 m with every trial's cap doubled (48 000 steps): 1.320 ± 0.008 as
+    at 24 000, the trial at 1.328 failing at the failure displacement after 55 380 steps where it was
+    collapsing at its cap; 123 800 steps in all (about 8 min)."""
+    scene = warpsph.load_scene(SCENE)
+    scene.phases = [p for p in scene.phases if p.kind != "dynamic"]
+    scene.phases[-1].max_steps *= 2
+    safety = warpsph.run_scene(scene.validate(), tmp_path, device="cpu").phases[-1]
+    assert safety["criterion"] == pytest.approx(1.3203125, abs=1e-6) and safety["resolution"] < 0.01
