@@ -140,8 +140,9 @@ class TrialJudge:
     farther than ``limit`` [m] from ``start`` (N,3), or when, at its step cap ``cap``, it is collapsing:
     over the cap's last quarter the largest displacement grew by at least ``SLOWING`` times what it grew
     over the quarter before (and by more than ``MOVING`` of the limit), while the mean kinetic energy
-    stayed at ``SLOWING`` times the quarter before's or more. A trial that is still slowing down at its cap is extended by the cap, at
-    most ``EXTENSIONS`` times; one that is slowing down at the last is undecided (:attr:`why`)."""
+    stayed at ``SLOWING`` times the quarter before's or more. A trial that is still slowing down at its
+    cap is extended by the cap, at most ``EXTENSIONS`` times; one that is slowing down at the last is
+    undecided (:attr:`why`)."""
 
     SLOWING = 0.95
     MOVING = 1e-3
@@ -357,10 +358,11 @@ class SafetyAnalysis(Equilibrium):
             g_norm = float(np.linalg.norm(g))
             weight = m.particle_mass.numpy()[:n].astype(float) * g_norm
             where = self.phase.slip_region
-            reservoirs = [] if m.pore is None else m.pore.reservoirs
-            surface = free_water(reservoirs, m.pore.surface_water.level.numpy(), water * g_norm) if reservoirs else None
+            standing = None  # the reservoirs' pressure on the ground's surface, at their levels now
+            if m.pore is not None and m.pore.reservoirs:
+                standing = free_water(m.pore.reservoirs, m.pore.surface_water.level.numpy(), water * g_norm)
             circle = critical_circle(ground(fields["position"], weight, strengths[material, 0], strengths[material, 1],
-                                            fields.get("pore_pressure"), m.dx, water * g_norm, surface),
+                                            fields.get("pore_pressure"), m.dx, water * g_norm, standing),
                                      (where.min[0], where.max[0], where.min[1]))  # fmt: skip
         if circle is None:
             record.limit_equilibrium = [math.nan] * 5
