@@ -1,5 +1,5 @@
 """Short runs of every shipped scene, through all their phases, to show what a change of the code moves:
-``python -m warpsph.regression run OUT`` before and after, then ``warpsph compare BEFORE AFTER``
+``python -m warpsph.regression run OUT`` before and after, then ``python -m warpsph.regression compare BEFORE AFTER``
 (docs/output.md, *Comparing runs*).
 """
 

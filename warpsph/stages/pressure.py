@@ -11,6 +11,7 @@ from warpsph.errors import SimulationError
 from warpsph.launching import launch, launch_rows
 from warpsph.model import PLANE_TRACTION, Model
 from warpsph.pore_water import PlaneDrainage
+from warpsph.stages.corrections import compute_volumes
 from warpsph.stages.linear_solve import LinearSolver, sparse_rows
 from warpsph.stages.pressure_kernels import (
     DRAINED_SURFACE_EIGENVALUE,
@@ -178,14 +179,14 @@ class PressureProjection:
                                           si.particle_pore_pressure)
         nl_v = sol.virtual_to_real
         launch_rows(self.k["fit_vector_at_virtual"], m.virtual_count,
-               [h, nl_v.offsets, nl_v.indices, si.virtual_q, vf.struct, si.particle_q,
-                m.particle_mass, si.particle_density, so.particle_v, self.virtual_v_star], dev)  # fmt: skip
+               [h, nl_v.offsets, nl_v.indices, si.virtual_q, vf.struct, si.particle_q, sol.real_volume,
+                so.particle_v, self.virtual_v_star], dev)  # fmt: skip
         sol.boundaries.update_virtual_ghosts(si.virtual_q, self.virtual_v_star, sol.virtual_stress,
                                              si.virtual_density, sol.virtual_p)  # fmt: skip
         nl_r = sol.real_to_virtual
         launch_rows(self.k["divergence_at_real"], n,
-               [h, nl_r.offsets, nl_r.indices, si.particle_q, rf.struct, si.virtual_q,
-                m.virtual_mass, si.virtual_density, self.virtual_v_star, self.div_v_star], dev)  # fmt: skip
+               [h, nl_r.offsets, nl_r.indices, si.particle_q, rf.struct, si.virtual_q, sol.virtual_volume,
+                self.virtual_v_star, self.div_v_star], dev)  # fmt: skip
         # assemble on the real-real list
         nl = sol.real_to_real
         if self.weight is None or self.weight.shape[0] < nl.indices.shape[0]:
@@ -205,9 +206,9 @@ class PressureProjection:
             self._warn_unstable_free_surface(si, dt)
             self.check_reservoirs(si)
         # the arguments of the pressure fits (``fitted_pressure``) ahead of each kernel's own
-        fit_args = [h, n, nl.offsets, nl.indices, si.particle_q, m.particle_origin, m.particle_mass,
-                    si.particle_density, m.particle_material, pw.water, m.particle_ghost_source,
-                    m.particle_ghost_planes, self.planes]  # fmt: skip
+        fit_args = [h, n, nl.offsets, nl.indices, si.particle_q, m.particle_origin, sol.real_volume,
+                    m.particle_material, pw.water, m.particle_ghost_source, m.particle_ghost_planes,
+                    self.planes]  # fmt: skip
         if self.settings.stabilisation > 0.0 or self.settings.interior_stabilisation > 0.0:
             launch_rows(self.k["mark_near_surface"], n,
                         [n, nl.offsets, nl.indices, m.particle_ghost_source, rf.smallest_eigenvalue,
@@ -218,8 +219,7 @@ class PressureProjection:
                     self.roughness], dev)  # fmt: skip
         launch_rows(self.k["assemble"], n,
                [h, real(dt), wp.float64(self.scale), n, nl.offsets, nl.indices, si.particle_q, m.particle_origin,
-                m.particle_mass,
-                si.particle_density, m.particle_material, pw.water, so.particle_v, self.div_v_star, self.p_old,
+                sol.real_volume, si.particle_density, m.particle_material, pw.water, so.particle_v, self.div_v_star, self.p_old,
                 m.particle_ghost_source, m.particle_ghost_planes, self.planes, self.dirichlet, self.value,
                 self.face_factor, self.momentum_image, rf.smallest_eigenvalue,
                 real(self.exterior_threshold), wp.float64(self.lattice_sum), self.roughness, self.near_surface,
@@ -246,7 +246,7 @@ class PressureProjection:
         self.update_ghosts(si.particle_q, x, homogeneous=False)
         launch(self.k["difference"], m.particle_count, [0, x, self.p_old, self.dp], dev)
         self.update_ghosts(si.particle_q, self.dp, homogeneous=True, momentum=True)
-        self._gradient(si, self.dp, homogeneous=True, momentum=True)
+        self._gradient(si, sol.real_volume, sol.virtual_volume, self.dp, homogeneous=True, momentum=True)
         launch(self.k["correct_velocity"], n, [0, real(dt), self.grad, so.particle_density, so.particle_v], dev)
 
     def free_surface_particles(self) -> np.ndarray:
@@ -291,20 +291,21 @@ class PressureProjection:
                 f"drainage), lower simulation.courant to {courant:.2g}")
             warnings.warn(self.surface_warning, stacklevel=2)
 
-    def _gradient(self, state, values, homogeneous: bool, momentum: bool = False) -> None:
-        """``self.grad`` = ∇values at the real particles via the virtual points (geometry of ``state``);
-        ``values`` has its real ghosts set; virtual ghosts get the same parity."""
+    def _gradient(self, state, real_volume, virtual_volume, values, homogeneous: bool, momentum: bool = False) -> None:
+        """``self.grad`` = ∇values at the real particles via the virtual points (geometry of ``state``, the
+        points' volumes ``real_volume`` and ``virtual_volume``); ``values`` has its real ghosts set; virtual
+        ghosts get the same parity."""
         m, sol = self.model, self.solver
         h, dev = m.spec.real(m.h), m.device
         rf, vf = sol.real_fits, sol.virtual_fits
         nl_v, nl_r = sol.virtual_to_real, sol.real_to_virtual
         launch_rows(self.k["fit_scalar_at_virtual"], m.virtual_count,
-               [h, nl_v.offsets, nl_v.indices, state.virtual_q, vf.struct, state.particle_q,
-                m.particle_mass, state.particle_density, values, self.virtual_dp], dev)  # fmt: skip
+               [h, nl_v.offsets, nl_v.indices, state.virtual_q, vf.struct, state.particle_q, real_volume, values,
+                self.virtual_dp], dev)  # fmt: skip
         self.update_ghosts(state.virtual_q, self.virtual_dp, homogeneous=homogeneous, virtual=True, momentum=momentum)
         launch_rows(self.k["gradient_at_real"], m.particle_count,
-               [h, nl_r.offsets, nl_r.indices, state.particle_q, rf.struct, state.virtual_q,
-                m.virtual_mass, state.virtual_density, self.virtual_dp, self.grad], dev)  # fmt: skip
+               [h, nl_r.offsets, nl_r.indices, state.particle_q, rf.struct, state.virtual_q, virtual_volume,
+                self.virtual_dp, self.grad], dev)  # fmt: skip
 
     def darcy_velocity(self, state) -> np.ndarray:
         """(N,3) Darcy velocity w = −k ∇p [m/s] of ``state``, through the two-set path (host copy).
@@ -313,7 +314,11 @@ class PressureProjection:
         differs from theirs by one step's motion)."""
         m = self.model
         self.update_ghosts(state.particle_q, state.particle_pore_pressure, homogeneous=False)
-        self._gradient(state, state.particle_pore_pressure, homogeneous=False)
+        real_volume = wp.empty(m.particle_total, dtype=m.spec.real, device=m.device)
+        virtual_volume = wp.empty(m.virtual_total, dtype=m.spec.real, device=m.device)
+        compute_volumes(m, m.particle_mass, state.particle_density, real_volume, 0, m.particle_total)
+        compute_volumes(m, m.virtual_mass, state.virtual_density, virtual_volume, 0, m.virtual_total)
+        self._gradient(state, real_volume, virtual_volume, state.particle_pore_pressure, homogeneous=False)
         w = wp.zeros(m.particle_count, dtype=wp.vec3d, device=m.device)
         launch(self.k["darcy"], m.particle_count,
                [self.grad, m.particle_material, m.pore.water, w], m.device)  # fmt: skip

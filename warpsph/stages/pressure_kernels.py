@@ -191,14 +191,14 @@ def pressure_kernels(spec: Spec):
 
     def fit_at_virtual_kernel(value_type):
         """The kernel that fits a field of the real set (``value_type``: vec3 or f64) at the virtual
-        points, out_i = Σ_b V_b ψ_b values_b with each point's linear-fit data."""
+        points, out_i = Σ_b V_b ψ_b values_b with each point's linear-fit data and the sources' volumes V."""
         weight_type = f64 if value_type is f64 else real  # a scalar f64 field sums in f64
 
         @wp.kernel(enable_backward=False, module="unique")
         def kernel(
             first: int, h: real, offsets: wp.array(dtype=wp.int32), nbr: wp.array(dtype=wp.int32),
-            vq: wp.array(dtype=vec3), fits: Fits, xs: wp.array(dtype=vec3), ms: wp.array(dtype=real),
-            rhos: wp.array(dtype=real), values: wp.array(dtype=value_type), out: wp.array(dtype=value_type),
+            vq: wp.array(dtype=vec3), fits: Fits, xs: wp.array(dtype=vec3), volume: wp.array(dtype=real),
+            values: wp.array(dtype=value_type), out: wp.array(dtype=value_type),
         ):  # fmt: skip
             i = first + wp.tid()
             x = vq[i]
@@ -206,7 +206,7 @@ def pressure_kernels(spec: Spec):
             for k in range(offsets[i], offsets[i + 1]):
                 b = nbr[k]
                 psi, phi = fit_weights(xs[b] - x, h, fits.c[i], fits.inv_den[i], fits.minv[i])
-                acc += weight_type(ms[b] / rhos[b] * psi) * values[b]
+                acc += weight_type(volume[b] * psi) * values[b]
             out[i] = acc
 
         return kernel
@@ -217,8 +217,8 @@ def pressure_kernels(spec: Spec):
     @wp.kernel(enable_backward=False, module="unique")
     def divergence_at_real(
         first: int, h: real, offsets: wp.array(dtype=wp.int32), nbr: wp.array(dtype=wp.int32), q: wp.array(dtype=vec3),
-        fits: Fits, xs: wp.array(dtype=vec3), ms: wp.array(dtype=real), rhos: wp.array(dtype=real),
-        values: wp.array(dtype=vec3), out: wp.array(dtype=f64),
+        fits: Fits, xs: wp.array(dtype=vec3), volume: wp.array(dtype=real), values: wp.array(dtype=vec3),
+        out: wp.array(dtype=f64),
     ):  # fmt: skip
         a = first + wp.tid()
         x = q[a]
@@ -226,7 +226,7 @@ def pressure_kernels(spec: Spec):
         div = zero
         for k in range(offsets[a], offsets[a + 1]):
             b = nbr[k]
-            vol = ms[b] / rhos[b]
+            vol = volume[b]
             psi, phi = fit_weights(xs[b] - x, h, fits.c[a], fits.inv_den[a], fits.minv[a])
             fit += (vol * psi) * values[b]
             div += f64(vol * wp.dot(phi, values[b]))
@@ -235,8 +235,8 @@ def pressure_kernels(spec: Spec):
     @wp.kernel(enable_backward=False, module="unique")
     def gradient_at_real(
         first: int, h: real, offsets: wp.array(dtype=wp.int32), nbr: wp.array(dtype=wp.int32), q: wp.array(dtype=vec3),
-        fits: Fits, xs: wp.array(dtype=vec3), ms: wp.array(dtype=real), rhos: wp.array(dtype=real),
-        values: wp.array(dtype=f64), out: wp.array(dtype=wp.vec3d),
+        fits: Fits, xs: wp.array(dtype=vec3), volume: wp.array(dtype=real), values: wp.array(dtype=f64),
+        out: wp.array(dtype=wp.vec3d),
     ):  # fmt: skip
         """∇f at real particles fitted from the virtual points' f."""
         a = first + wp.tid()
@@ -245,7 +245,7 @@ def pressure_kernels(spec: Spec):
         grad = wp.vec3d(zero, zero, zero)
         for k in range(offsets[a], offsets[a + 1]):
             b = nbr[k]
-            vol = ms[b] / rhos[b]
+            vol = volume[b]
             psi, phi = fit_weights(xs[b] - x, h, fits.c[a], fits.inv_den[a], fits.minv[a])
             fit += f64(vol * psi) * values[b]
             grad += wp.vec3d(f64(phi[0]), f64(phi[1]), f64(phi[2])) * (f64(vol) * values[b])
@@ -346,8 +346,8 @@ def pressure_kernels(spec: Spec):
     @wp.func
     def fitted_pressure(
         a: int, with_self: int, h: real, n: int, offsets: wp.array(dtype=wp.int32), nbr: wp.array(dtype=wp.int32),
-        q: wp.array(dtype=vec3), origin: wp.array(dtype=vec3), mass: wp.array(dtype=real),
-        density: wp.array(dtype=real), material: wp.array(dtype=wp.int32), water: Water,
+        q: wp.array(dtype=vec3), origin: wp.array(dtype=vec3), volume: wp.array(dtype=real),
+        material: wp.array(dtype=wp.int32), water: Water,
         ghost_source: wp.array(dtype=wp.int32), ghost_chain: wp.array(dtype=wp.vec3i), planes: Planes,
         dirichlet: wp.array(dtype=wp.int32), p: wp.array(dtype=f64),
     ):  # fmt: skip
@@ -362,7 +362,7 @@ def pressure_kernels(spec: Spec):
         wp_sum = zero
         gp_sum = wp.vec3d(zero, zero, zero)
         if with_self == 1:
-            w0, wr, g0, M, w, g = add_to_fit(origin_a, mass[a] / density[a], h, w0, wr, g0, M)
+            w0, wr, g0, M, w, g = add_to_fit(origin_a, volume[a], h, w0, wr, g0, M)
             wp_sum = f64(w) * p[a]
         for k in range(offsets[a], offsets[a + 1]):
             j = nbr[k]
@@ -370,7 +370,7 @@ def pressure_kernels(spec: Spec):
                 used, value = fit_source(j, a, n, p, dirichlet, origin, material, water, ghost_source, ghost_chain,
                                          q, planes)  # fmt: skip
                 if used == 1:
-                    w0, wr, g0, M, w, g = add_to_fit(q[j] - x, mass[j] / density[j], h, w0, wr, g0, M)
+                    w0, wr, g0, M, w, g = add_to_fit(q[j] - x, volume[j], h, w0, wr, g0, M)
                     wp_sum += f64(w) * value
                     gp_sum += wp.vec3d(f64(g[0]), f64(g[1]), f64(g[2])) * value
         if w0 <= real(0.0):
@@ -397,8 +397,8 @@ def pressure_kernels(spec: Spec):
         @wp.kernel(enable_backward=False, module="unique")
         def kernel(
             first: int, h: real, n: int, offsets: wp.array(dtype=wp.int32), nbr: wp.array(dtype=wp.int32),
-            q: wp.array(dtype=vec3), origin: wp.array(dtype=vec3), mass: wp.array(dtype=real),
-            density: wp.array(dtype=real), material: wp.array(dtype=wp.int32), water: Water,
+            q: wp.array(dtype=vec3), origin: wp.array(dtype=vec3), volume: wp.array(dtype=real),
+            material: wp.array(dtype=wp.int32), water: Water,
             ghost_source: wp.array(dtype=wp.int32), ghost_chain: wp.array(dtype=wp.vec3i), planes: Planes,
             selected: wp.array(dtype=wp.int32), everywhere: int, dirichlet: wp.array(dtype=wp.int32),
             p: wp.array(dtype=f64), out: wp.array(dtype=f64),
@@ -416,8 +416,8 @@ def pressure_kernels(spec: Spec):
             if dirichlet[a] == 1 or not needed:
                 return
             fit, corrected, found = fitted_pressure(a, wp.static(0 if sealed_faces else 1), h, n, offsets, nbr, q,
-                                                    origin, mass, density, material, water, ghost_source, ghost_chain,
-                                                    planes, dirichlet, p)  # fmt: skip
+                                                    origin, volume, material, water, ghost_source, ghost_chain, planes,
+                                                    dirichlet, p)  # fmt: skip
             if wp.static(sealed_faces):
                 if found == 1:
                     out[a] = fit
@@ -433,7 +433,7 @@ def pressure_kernels(spec: Spec):
     def assemble(
         first: int, h: real, dt: real, scale: f64, n: int, offsets: wp.array(dtype=wp.int32),
         nbr: wp.array(dtype=wp.int32), q: wp.array(dtype=vec3), origin: wp.array(dtype=vec3),
-        mass: wp.array(dtype=real), density: wp.array(dtype=real), material: wp.array(dtype=wp.int32),
+        volume: wp.array(dtype=real), density: wp.array(dtype=real), material: wp.array(dtype=wp.int32),
         water: Water, v_star: wp.array(dtype=vec3),
         div_v_star: wp.array(dtype=f64), p_old: wp.array(dtype=f64), ghost_source: wp.array(dtype=wp.int32),
         ghost_chain: wp.array(dtype=wp.vec3i), planes: Planes,
@@ -445,7 +445,7 @@ def pressure_kernels(spec: Spec):
     ):  # fmt: skip
         a = first + wp.tid()
         x = q[a]
-        vol_a = f64(mass[a] / density[a]) * face_factor[a]  # a particle on a plane owns half its cell
+        vol_a = f64(volume[a]) * face_factor[a]  # a particle on a plane owns half its cell
         mat = material[a]
         k_a = water.permeability[mat]
         dt_rho_a = f64(dt) / f64(density[a])
@@ -458,15 +458,16 @@ def pressure_kernels(spec: Spec):
             j = nbr[k]
             r = x - q[j]
             morris = -f64(wp.dot(r, grad_W(r, h))) / (f64(wp.dot(r, r)) + eta2) * scale
-            vol_j = f64(mass[j] / density[j])
+            vol_j = f64(volume[j])
             present += vol_j * morris
             mat_j = material[j]
             k_j = water.permeability[mat_j]
             k_pair = zero  # twice the harmonic mean: flux continuity across layers of contrasting k
             if k_a + k_j > zero:
                 k_pair = f64(4.0) * k_a * k_j / (k_a + k_j)
-            w = vol_a * vol_j * (k_pair + dt_rho_a + f64(dt) / f64(density[j])) * morris
-            w_dt = vol_a * vol_j * (dt_rho_a + f64(dt) / f64(density[j])) * morris
+            dt_rho_j = f64(dt) / f64(density[j])
+            w = vol_a * vol_j * (k_pair + dt_rho_a + dt_rho_j) * morris
+            w_dt = vol_a * vol_j * (dt_rho_a + dt_rho_j) * morris
             d += w
             col = j
             s = f64(1.0)  # Darcy parity (the k part) ...
@@ -494,7 +495,7 @@ def pressure_kernels(spec: Spec):
                     base = stabilisation * f64(LOW_PERMEABILITY_WEIGHT)
                     if near_surface[a] == NEAR_SEALED_FACE or near_surface[col] == NEAR_SEALED_FACE:
                         base = stabilisation
-                    draining = k_pair / (dt_rho_a + f64(dt) / f64(density[j]))  # k ρ/Δt
+                    draining = k_pair / (dt_rho_a + dt_rho_j)  # k ρ/Δt
                     theta = wp.max(faded_by_draining(base, draining), interior_stabilisation)
                 b -= theta * w_dt * (rough[a] - rough[col])
             # the ghost's parities folded in (SparseRows: A x = diag x − Σ weight x[col])
