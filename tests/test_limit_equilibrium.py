@@ -10,7 +10,9 @@ import math
 import numpy as np
 import pytest
 
-from warpsph.phases.limit_equilibrium import critical_circle, ground, slices, bishop, spencer
+from warpsph.phases.limit_equilibrium import (EVERYWHERE, above_the_bottom, bishop, critical_circle, ground, slices,
+                                              spencer)
+from warpsph.phases.safety import bottom_warnings
 
 GAMMA = 20e3
 
@@ -208,3 +210,36 @@ def test_still_water_on_a_slope_acts_as_its_buoyancy(level):
           f"{light.spencer:.4f}")
     assert wet.bishop == pytest.approx(light.bishop, rel=2e-3) and wet.spencer == pytest.approx(light.spencer, rel=5e-3)
     assert wet.centre == pytest.approx(light.centre, abs=0.5) and wet.radius == pytest.approx(light.radius, abs=0.5)
+
+
+def clay_on_rock(x):
+    """An undrained 2:1 slope 6 m high on 6 m of the same clay over rock at y = 0."""
+    return np.where(x <= 10, 6.0, np.where(x >= 22, 12.0, 6 + (x - 10) / 2))
+
+
+def test_a_circle_along_the_bottom_is_reported_above_the_lowest_row():
+    """The deep circle of an undrained slope on clay over rock is tangent to the rock (Taylor's base failure),
+    where the particles' lowest row does not shear: Bishop's factor with the arcs kept above that row is
+    reported beside it and is higher; a circle through the toe of Griffiths & Lane's slope stays above
+    the row and reports none."""
+    dx = 0.5
+    clay = particles(clay_on_rock, 40.0, dx, 20e3, 0.0)
+    deep = critical_circle(clay)
+    raised = above_the_bottom(clay, EVERYWHERE, deep)
+    lowest = deep.centre[1] - deep.radius
+    print(f"\nalong the rock {deep.bishop:.4f} (arc down to {lowest:.3f} m), above the row {raised:.4f}")
+    assert lowest < dx  # down to the rock
+    assert raised > deep.bishop * 1.01  # measured 0.974 and 0.985
+    assert raised == critical_circle(clay, (-math.inf, math.inf, clay.bottom + 1.5 * dx)).bishop
+    toe = particles(gl, 44.0, dx, 10e3, 20.0)
+    assert math.isnan(above_the_bottom(toe, EVERYWHERE, critical_circle(toe)))
+
+
+def test_a_factor_that_rises_off_the_bottom_is_warned_about():
+    """More than 2 % higher above the lowest row (the earth dam of scenes/dam_rapid_drawdown.toml at full
+    reservoir, Δx = 0.5 m: 1.474 and 1.544) warns, naming the spacing at which the rise would be 2 %."""
+    (line,) = bottom_warnings([1.474, 1.477, 31.7, 16.6, 16.7, 1.544], 0.5)
+    assert "1.474 there and 1.544 above that row (+4.7 %)" in line and line.endswith("set simulation.dx to 0.21 m or "
+                                                                                    "less (now 0.5 m)")  # fmt: skip
+    assert bottom_warnings([1.0, 1.0, 0.0, 0.0, 1.0, 1.019], 0.5) == [] == bottom_warnings([1.0] * 5, 0.5)
+    assert bottom_warnings([1.0, 1.0, 0.0, 0.0, 1.0, math.nan], 0.5) == []

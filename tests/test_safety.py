@@ -452,7 +452,7 @@ def test_a_slip_region_limits_the_limit_equilibrium_search(tmp_path):
     phases[-1] = dataclasses.replace(phases[-1], slip_region=Region(min=(-math.inf, 2.5, 0.0)))
     kept = warpsph.run_scene(vertical_cut(0.5, phases), tmp_path / "kept", device="cpu").phases[-1]
     print(f"\nfree {free['limit_equilibrium']}, above y = 2.5 m {kept['limit_equilibrium']}")
-    bishop, _, xc, yc, r = kept["limit_equilibrium"]
+    bishop, _, xc, yc, r = kept["limit_equilibrium"][:5]
     columns = np.arange(4.0, 8.01, 0.5)  # the upper ground's columns, the face's included
     columns = columns[np.abs(columns - xc) < r]
     assert np.all(yc - np.sqrt(r * r - (columns - xc) ** 2) >= 2.5 - 1e-9)  # the arc's base under soil

@@ -18,6 +18,9 @@ FORMAT_VERSION = 1
 TRIAL_COLUMNS = 7
 """A safety trial's row in ``/phases/trials/<name>``: factor, outcome, ratio, steps, displacement, kinetic
 energy, why."""
+LIMIT_EQUILIBRIUM_COLUMNS = 6
+"""A safety phase's row in ``/phases/limit_equilibrium``: Bishop's factor, Spencer's, the critical circle's
+centre x, y and radius, Bishop's with the arcs kept above the soil's lowest row of particles."""
 _SERIES_COLUMNS = {"step": np.int64, "time": np.float64, "value": np.float64}
 
 
@@ -115,7 +118,7 @@ class ResultsWriter:
     def write_phases(self, records: list[dict]) -> None:
         """Replace ``/phases``: one row per phase, columns ``name``, ``kind``, ``outcome`` (strings),
         ``first_step``, ``last_step`` (int64), ``start_time``, ``end_time``, ``criterion``, ``resolution``,
-        ``failing_mass`` (float64), ``limit_equilibrium`` (P,5), ``refined`` (P,2), and a safety phase's trials as
+        ``failing_mass`` (float64), ``limit_equilibrium`` (P,6), ``refined`` (P,2), and a safety phase's trials as
         ``/phases/trials/<name>``, (T,7) float64 rows (docs/output.md)."""
         self._check_open()
         with _open(self.path, "r+") as f:
@@ -129,8 +132,9 @@ class ResultsWriter:
                 group.create_dataset(column, data=np.array([r[column] for r in records], dtype=np.int64))
             for column in ("start_time", "end_time", "criterion", "resolution", "failing_mass"):
                 group.create_dataset(column, data=np.array([r[column] for r in records], dtype=np.float64))
-            rows = [r["limit_equilibrium"] or [np.nan] * 5 for r in records]
-            group.create_dataset("limit_equilibrium", data=np.array(rows, dtype=np.float64).reshape(-1, 5))
+            width = LIMIT_EQUILIBRIUM_COLUMNS  # nan where none (other kinds) and in columns an older record lacks
+            rows = [[*r["limit_equilibrium"], *[np.nan] * (width - len(r["limit_equilibrium"]))] for r in records]
+            group.create_dataset("limit_equilibrium", data=np.array(rows, dtype=np.float64).reshape(-1, width))
             rows = [r.get("refined") or [np.nan] * 2 for r in records]
             group.create_dataset("refined", data=np.array(rows, dtype=np.float64).reshape(-1, 2))
             trials = group.create_group("trials")
@@ -248,7 +252,7 @@ class Results:
     @property
     def phases(self) -> list[dict]:
         """The phases run, in order: dicts with name, kind, outcome, first_step, last_step, start_time,
-        end_time, criterion, resolution, failing_mass, limit_equilibrium (5,), refined (2,) and trials (a safety phase's
+        end_time, criterion, resolution, failing_mass, limit_equilibrium (6,), refined (2,) and trials (a safety phase's
         (T,7) array, docs/output.md; (0,7) for other kinds); [] for a run without phases."""
         with self._open() as f:
             if "phases" not in f:

@@ -303,3 +303,16 @@ def critical_circle(g: Ground, region: tuple[float, float, float] = EVERYWHERE) 
     spencer_factor, theta = spencer(slices(g, best[None, :], region), 0, best_factor)
     return CriticalCircle((float(best[0]), float(best[1])), float(best[2]), best_factor, float(spencer_factor),
                           float(theta), tried)  # fmt: skip
+
+
+def above_the_bottom(g: Ground, region: tuple[float, float, float], critical: CriticalCircle) -> float:
+    """Bishop's factor of the critical circle with the arcs kept above the soil's lowest row of particles
+    (a spacing above their centres), where the ``critical`` circle of ``region`` dips below that (nan where it
+    stays higher, as the region's own floor may keep it): the lowest row rests on the soil's bottom (a fixed
+    base holds it), so the particles shear a row above it at the least, and a strength-reduction mechanism
+    along the bottom lies at least as high as this circle."""
+    floor = g.bottom + 1.5 * g.cell
+    if critical.centre[1] - critical.radius >= floor:
+        return math.nan
+    raised = critical_circle(g, (region[0], region[1], floor))
+    return raised.bishop if raised is not None else math.nan

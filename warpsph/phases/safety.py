@@ -22,7 +22,7 @@ from warpsph.io.safety_figure import write_safety_figure
 from warpsph.model import host_fields
 from warpsph.phases.base import CHECK_EVERY, Stopped
 from warpsph.phases.equilibrium import Equilibrium, largest_displacement
-from warpsph.phases.limit_equilibrium import critical_circle, ground, strength
+from warpsph.phases.limit_equilibrium import above_the_bottom, critical_circle, ground, strength
 from warpsph.phases.search import FactorSearch, reduced_strength
 from warpsph.phases.staging import CONVERGED, NOT_CONVERGED
 from warpsph.scene import FAILURE_DISPLACEMENT
@@ -100,14 +100,31 @@ def refinement_warnings(criterion: float, refined, dx: float) -> list[str]:
             f"{dx / 2:g} m with refine again"]  # fmt: skip
 
 
+def bottom_warnings(values, dx: float) -> list[str]:
+    """A line when a safety phase's ``limit_equilibrium`` says that Bishop's factor rises by more than
+    ``REFINED_CHANGE`` with the arcs kept above the soil's lowest row of particles: the critical circle runs
+    along the bottom, which the particles cannot shear, so the strength-reduction factor reads high."""
+    if len(values or []) < 6 or not values[5] / values[0] - 1.0 > REFINED_CHANGE:
+        return []
+    change = values[5] / values[0] - 1.0
+    return [f"the critical slip circle runs along the bottom of the soil, whose lowest row of particles does not "
+            f"shear: Bishop's factor is {values[0]:.3f} there and {values[5]:.3f} above that row "
+            f"({100 * change:+.1f} %), so the factor of safety reads high; set simulation.dx to "
+            f"{dx * REFINED_CHANGE / change:.2g} m or less (now {dx:g} m)"]  # fmt: skip
+
+
 def limit_equilibrium_line(values) -> str:
-    """The line that reports a safety phase's ``limit_equilibrium`` [Bishop, Spencer, x, y, r] ("" without one)."""
+    """The line that reports a safety phase's ``limit_equilibrium`` [Bishop, Spencer, x, y, r, Bishop above
+    the soil's lowest row] ("" without one)."""
     if not values or not math.isfinite(values[0]):
         return ""
-    bishop, spencer, x, y, r = values
+    bishop, spencer, x, y, r = values[:5]
     other = f"Spencer {spencer:.3f}" if math.isfinite(spencer) else "Spencer not found"
+    raised = ""
+    if len(values) > 5 and math.isfinite(values[5]):
+        raised = f"; Bishop {values[5]:.3f} with the arc above the soil's lowest row of particles"
     return (f"  limit equilibrium at the phase's start: Bishop {bishop:.3f}, {other} on the critical circle centred "
-            f"at ({x:.2f}, {y:.2f}) m, radius {r:.2f} m")  # fmt: skip
+            f"at ({x:.2f}, {y:.2f}) m, radius {r:.2f} m{raised}")  # fmt: skip
 
 
 def refined_line(criterion: float, refined, dx: float, name: str) -> str:
@@ -330,21 +347,23 @@ class SafetyAnalysis(Equilibrium):
 
     def mechanism_height(self, positions: np.ndarray) -> float:
         """The height [m] of the mechanism of a trial that ended at ``positions`` (N,3), the state being at
-        the phase's start: the extent along gravity of the particles that moved more than half the most,
-        plus one spacing."""
+        the phase's start: the extent along gravity of the particles that moved more than half as far as
+        the farthest 1 % (not the farthest one: a particle thrown off the surface), plus one spacing."""
         start = self.run.state.particle_q.numpy()[: len(positions)].astype(float)
         moved = np.linalg.norm(positions - start, axis=1)
-        return self.run.height(start[moved > 0.5 * moved.max()]) + self.run.model.dx
+        return self.run.height(start[moved > 0.5 * np.percentile(moved, 99.0)]) + self.run.model.dx
 
     def warnings(self, record) -> list[str]:
         dx = self.run.model.dx
         return (resolution_warnings(record.failing_mass, dx, self.phase.min_failing_mass)
-                + refinement_warnings(record.criterion, record.refined, dx))  # fmt: skip
+                + refinement_warnings(record.criterion, record.refined, dx)
+                + bottom_warnings(record.limit_equilibrium, dx))  # fmt: skip
 
     def limit_equilibrium(self, record) -> None:
-        """Bishop's and Spencer's factors on the critical slip circle of the phase's start state, into
-        ``record`` (:mod:`~warpsph.phases.limit_equilibrium`); nan where the run is not 2D with gravity
-        along −y, or no circle cuts the ground."""
+        """Bishop's and Spencer's factors on the critical slip circle of the phase's start state and
+        Bishop's with the arcs kept above the soil's lowest row of particles, into ``record``
+        (:mod:`~warpsph.phases.limit_equilibrium`); nan where the run is not 2D with gravity along −y, or
+        no circle cuts the ground."""
         run, m = self.run, self.run.model
         g = np.asarray(m.gravity, dtype=float)
         circle = None
@@ -361,13 +380,15 @@ class SafetyAnalysis(Equilibrium):
             standing = None  # the reservoirs' pressure on the ground's surface, at their levels now
             if m.pore is not None and m.pore.reservoirs:
                 standing = free_water(m.pore.reservoirs, m.pore.surface_water.level.numpy(), water * g_norm)
-            circle = critical_circle(ground(fields["position"], weight, strengths[material, 0], strengths[material, 1],
-                                            fields.get("pore_pressure"), m.dx, water * g_norm, standing),
-                                     (where.min[0], where.max[0], where.min[1]))  # fmt: skip
+            soil = ground(fields["position"], weight, strengths[material, 0], strengths[material, 1],
+                          fields.get("pore_pressure"), m.dx, water * g_norm, standing)  # fmt: skip
+            region = (where.min[0], where.max[0], where.min[1])
+            circle = critical_circle(soil, region)
         if circle is None:
-            record.limit_equilibrium = [math.nan] * 5
+            record.limit_equilibrium = [math.nan] * 6
             return
-        record.limit_equilibrium = [circle.bishop, circle.spencer, *circle.centre, circle.radius]
+        record.limit_equilibrium = [circle.bishop, circle.spencer, *circle.centre, circle.radius,
+                                    above_the_bottom(soil, region, circle)]  # fmt: skip
 
     def _remote_trials(self, client, factors: list[float]) -> list[TrialOutcome]:
         """The trials at ``factors`` on the Dask workers of ``client``, in the order of ``factors``."""

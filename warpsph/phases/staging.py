@@ -42,13 +42,14 @@ class PhaseRecord:
     """Safety: the factor of safety's ± (half the final bracket's width)."""
     failing_mass: float = float("nan")
     """Safety: the height of the weakest failing trial's mechanism in particle spacings (its particles
-    that moved more than half the most, their extent along gravity, plus one spacing)."""
+    that moved more than half as far as the farthest 1 %, their extent along gravity, plus one spacing)."""
     refined: list = field(default_factory=list)
     """Safety with ``refine``: [the factor of safety, its resolution] of the same search at half the
     particle spacing (nan where that search did not bracket it)."""
     limit_equilibrium: list = field(default_factory=list)
     """Safety: limit equilibrium at the phase's start, [Bishop's factor, Spencer's, the critical circle's
-    centre x, y and radius [m]] (nan where not found; :mod:`~warpsph.phases.limit_equilibrium`)."""
+    centre x, y and radius [m], Bishop's with the arcs kept above the soil's lowest row of particles] (nan
+    where not found; :mod:`~warpsph.phases.limit_equilibrium`)."""
     trials: list = field(default_factory=list)
     """Safety: one row per trial (:attr:`~warpsph.phases.safety.TrialOutcome.row`)."""
 
