@@ -20,7 +20,7 @@ TRIAL_COLUMNS = 7
 energy, why."""
 LIMIT_EQUILIBRIUM_COLUMNS = 6
 """A safety phase's row in ``/phases/limit_equilibrium``: Bishop's factor, Spencer's, the critical circle's
-centre x, y and radius, Bishop's with the arcs kept above the soil's lowest row of particles."""
+centre x, y and radius, Bishop's with the arcs kept above the rows of particles that do not shear."""
 _SERIES_COLUMNS = {"step": np.int64, "time": np.float64, "value": np.float64}
 
 

@@ -126,8 +126,8 @@ def slices(g: Ground, circles: np.ndarray, region: tuple[float, float, float] = 
     column's soil above the circle's lower arc and the free water on it, its base where the arc crosses
     the column's middle; free water beside the sliding mass (each run of cut slices) pushes on its end
     slices, hydrostatic from the water's level down to where the arc ends. A circle is valid only where
-    the columns it cuts lie within ``region`` (x from, x to, lowest y [m]): their x between the first
-    two, their bases at or above the third."""
+    the columns it cuts lie within ``region`` (x from, x to, lowest y [m], the last one for all slices or
+    one per slice): their x between the first two, their bases at or above the third."""
     xc, yc, r = (circles[:, i : i + 1] for i in range(3))
     dx = g.x[None, :] - xc
     inside = np.abs(dx) < r
@@ -148,7 +148,8 @@ def slices(g: Ground, circles: np.ndarray, region: tuple[float, float, float] = 
         cohesion[:, j], tan_phi[:, j] = g.cohesion[j][cut], g.tan_phi[j][cut]
         pore[:, j] = np.interp(b, y, g.pore[j])
         below_bottom |= (w > 0.0) & (b < lower[0] - 1e-9 * g.cell)
-        outside |= (w > 0.0) & ((g.x[j] < region[0]) | (g.x[j] > region[1]) | (b < region[2] - 1e-9 * g.cell))
+        floor = region[2] if np.isscalar(region[2]) else region[2][j]
+        outside |= (w > 0.0) & ((g.x[j] < region[0]) | (g.x[j] > region[1]) | (b < floor - 1e-9 * g.cell))
     sin = np.clip(dx / r, -1.0, 1.0)
     cut_columns = weight > 0.0
     weight += np.where(cut_columns, g.ponded * g.width, 0.0)
@@ -272,7 +273,7 @@ def critical_circle(g: Ground, region: tuple[float, float, float] = EVERYWHERE) 
     lowest y [m]) the centres span its width and the circles are those whose sliding mass lies within it
     (:func:`slices`). None where no circle cuts the ground validly."""
     left, right = max(float(g.x.min()), region[0]), min(float(g.x.max()), region[1])
-    height = g.top - max(g.bottom, region[2])
+    height = g.top - max(g.bottom, float(np.min(region[2])))
     if not (left < right and height > 0.0):
         return None
     best, best_factor, tried = None, math.inf, 0
@@ -305,14 +306,32 @@ def critical_circle(g: Ground, region: tuple[float, float, float] = EVERYWHERE) 
                           float(theta), tried)  # fmt: skip
 
 
-def above_the_bottom(g: Ground, region: tuple[float, float, float], critical: CriticalCircle) -> float:
-    """Bishop's factor of the critical circle with the arcs kept above the soil's lowest row of particles
-    (a spacing above their centres), where the ``critical`` circle of ``region`` dips below that (nan where it
-    stays higher, as the region's own floor may keep it): the lowest row rests on the soil's bottom (a fixed
-    base holds it), so the particles shear a row above it at the least, and a strength-reduction mechanism
-    along the bottom lies at least as high as this circle."""
-    floor = g.bottom + 1.5 * g.cell
-    if critical.centre[1] - critical.radius >= floor:
+def unsheared_top(g: Ground) -> np.ndarray:
+    """Per slice, a spacing above the rows of particles that a slip through the slice does not shear: its
+    lowest row, which rests on the soil's bottom, and the run up from it of particles stronger at their own
+    vertical effective stress than the slice's weakest soil would be there (a stronger layer, a body that
+    does not yield). Above that level the particles' shear band can form."""
+    top = np.empty(len(g.x))
+    for j, (y, c, t) in enumerate(zip(g.y, g.cohesion, g.tan_phi)):
+        stress = np.maximum((g.above[j][:-1] - 0.5 * g.weight[j]) / g.width + g.ponded[j] - g.pore[j], 0.0)
+        soils = np.unique(np.stack([c, t], axis=1), axis=0)
+        weakest = np.min(soils[:, :1] + stress[None, :] * soils[:, 1:], axis=0)
+        stronger = c + stress * t > weakest * (1.0 + 1e-9)
+        rows = len(y) if stronger.all() else int(np.argmin(stronger))
+        top[j] = y[max(rows, 1) - 1] + g.cell
+    return top
+
+
+def above_the_floor(g: Ground, region: tuple, critical: CriticalCircle) -> float:
+    """Bishop's factor with the arcs kept above the rows of particles that do not shear (:func:`unsheared_top`),
+    where the ``critical`` circle of ``region`` dips below them (nan where it stays higher): a strength-reduction
+    mechanism along the soil's bottom or the top of a stronger layer forms its band in the rows above, at least
+    as high as this circle."""
+    (xc, yc), r = critical.centre, critical.radius
+    j = int(np.argmin(np.abs(g.x - xc)))  # the arc's lowest slice in the ground
+    lowest = yc - math.sqrt(max(r * r - (g.x[j] - xc) ** 2, 0.0))
+    floor = np.maximum(unsheared_top(g), region[2])
+    if lowest >= floor[j]:
         return math.nan
     raised = critical_circle(g, (region[0], region[1], floor))
     return raised.bishop if raised is not None else math.nan

@@ -22,7 +22,7 @@ from warpsph.io.safety_figure import write_safety_figure
 from warpsph.model import host_fields
 from warpsph.phases.base import CHECK_EVERY, Stopped
 from warpsph.phases.equilibrium import Equilibrium, largest_displacement
-from warpsph.phases.limit_equilibrium import above_the_bottom, critical_circle, ground, strength
+from warpsph.phases.limit_equilibrium import above_the_floor, critical_circle, ground, strength
 from warpsph.phases.search import FactorSearch, reduced_strength
 from warpsph.phases.staging import CONVERGED, NOT_CONVERGED
 from warpsph.scene import FAILURE_DISPLACEMENT
@@ -100,29 +100,29 @@ def refinement_warnings(criterion: float, refined, dx: float) -> list[str]:
             f"{dx / 2:g} m with refine again"]  # fmt: skip
 
 
-def bottom_warnings(values, dx: float) -> list[str]:
+def floor_warnings(values, dx: float) -> list[str]:
     """A line when a safety phase's ``limit_equilibrium`` says that Bishop's factor rises by more than
-    ``REFINED_CHANGE`` with the arcs kept above the soil's lowest row of particles: the critical circle runs
-    along the bottom, which the particles cannot shear, so the strength-reduction factor reads high."""
+    ``REFINED_CHANGE`` with the arcs kept above the rows of particles that do not shear (the soil's lowest,
+    a stronger soil's): the critical circle runs along them, so the strength-reduction factor reads high."""
     if len(values or []) < 6 or not values[5] / values[0] - 1.0 > REFINED_CHANGE:
         return []
     change = values[5] / values[0] - 1.0
-    return [f"the critical slip circle runs along the bottom of the soil, whose lowest row of particles does not "
-            f"shear: Bishop's factor is {values[0]:.3f} there and {values[5]:.3f} above that row "
-            f"({100 * change:+.1f} %), so the factor of safety reads high; set simulation.dx to "
+    return [f"the critical slip circle runs along the bottom of the soil or the top of a stronger soil, whose rows of "
+            f"particles do not shear: Bishop's factor is {values[0]:.3f} there and {values[5]:.3f} a row above "
+            f"them ({100 * change:+.1f} %), so the factor of safety reads high; set simulation.dx to "
             f"{dx * REFINED_CHANGE / change:.2g} m or less (now {dx:g} m)"]  # fmt: skip
 
 
 def limit_equilibrium_line(values) -> str:
     """The line that reports a safety phase's ``limit_equilibrium`` [Bishop, Spencer, x, y, r, Bishop above
-    the soil's lowest row] ("" without one)."""
+    the rows that do not shear] ("" without one)."""
     if not values or not math.isfinite(values[0]):
         return ""
     bishop, spencer, x, y, r = values[:5]
     other = f"Spencer {spencer:.3f}" if math.isfinite(spencer) else "Spencer not found"
     raised = ""
     if len(values) > 5 and math.isfinite(values[5]):
-        raised = f"; Bishop {values[5]:.3f} with the arc above the soil's lowest row of particles"
+        raised = f"; Bishop {values[5]:.3f} with the arc a row above the rows that do not shear"
     return (f"  limit equilibrium at the phase's start: Bishop {bishop:.3f}, {other} on the critical circle centred "
             f"at ({x:.2f}, {y:.2f}) m, radius {r:.2f} m{raised}")  # fmt: skip
 
@@ -357,11 +357,11 @@ class SafetyAnalysis(Equilibrium):
         dx = self.run.model.dx
         return (resolution_warnings(record.failing_mass, dx, self.phase.min_failing_mass)
                 + refinement_warnings(record.criterion, record.refined, dx)
-                + bottom_warnings(record.limit_equilibrium, dx))  # fmt: skip
+                + floor_warnings(record.limit_equilibrium, dx))  # fmt: skip
 
     def limit_equilibrium(self, record) -> None:
         """Bishop's and Spencer's factors on the critical slip circle of the phase's start state and
-        Bishop's with the arcs kept above the soil's lowest row of particles, into ``record``
+        Bishop's with the arcs kept above the rows of particles that do not shear, into ``record``
         (:mod:`~warpsph.phases.limit_equilibrium`); nan where the run is not 2D with gravity along −y, or
         no circle cuts the ground."""
         run, m = self.run, self.run.model
@@ -388,7 +388,7 @@ class SafetyAnalysis(Equilibrium):
             record.limit_equilibrium = [math.nan] * 6
             return
         record.limit_equilibrium = [circle.bishop, circle.spencer, *circle.centre, circle.radius,
-                                    above_the_bottom(soil, region, circle)]  # fmt: skip
+                                    above_the_floor(soil, region, circle)]  # fmt: skip
 
     def _remote_trials(self, client, factors: list[float]) -> list[TrialOutcome]:
         """The trials at ``factors`` on the Dask workers of ``client``, in the order of ``factors``."""

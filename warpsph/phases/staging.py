@@ -48,7 +48,7 @@ class PhaseRecord:
     particle spacing (nan where that search did not bracket it)."""
     limit_equilibrium: list = field(default_factory=list)
     """Safety: limit equilibrium at the phase's start, [Bishop's factor, Spencer's, the critical circle's
-    centre x, y and radius [m], Bishop's with the arcs kept above the soil's lowest row of particles] (nan
+    centre x, y and radius [m], Bishop's with the arcs kept above the rows of particles that do not shear] (nan
     where not found; :mod:`~warpsph.phases.limit_equilibrium`)."""
     trials: list = field(default_factory=list)
     """Safety: one row per trial (:attr:`~warpsph.phases.safety.TrialOutcome.row`)."""
