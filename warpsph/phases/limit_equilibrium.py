@@ -270,8 +270,8 @@ def critical_circle(g: Ground, region: tuple[float, float, float] = EVERYWHERE) 
     """The circle of least Bishop factor over a grid of centres above the ground (from its top to 1.5
     heights above it, across its width) and radii whose arcs reach from its top to its bottom, refined
     ``REFINEMENTS`` times around the best, and Spencer's factor on it; with ``region`` (x from, x to,
-    lowest y [m]) the centres span its width and the circles are those whose sliding mass lies within it
-    (:func:`slices`). None where no circle cuts the ground validly."""
+    lowest y [m], for all slices or one per slice) the centres span its width and the circles are those
+    whose sliding mass lies within it (:func:`slices`). None where no circle cuts the ground validly."""
     left, right = max(float(g.x.min()), region[0]), min(float(g.x.max()), region[1])
     height = g.top - max(g.bottom, float(np.min(region[2])))
     if not (left < right and height > 0.0):

@@ -18,6 +18,7 @@ from warpsph.cluster import dask_client
 from warpsph.environment import init_warp
 from warpsph.errors import SimulationError
 from warpsph.io.run_directory import CHECKPOINT
+from warpsph.io.results import LIMIT_EQUILIBRIUM_COLUMNS
 from warpsph.io.safety_figure import write_safety_figure
 from warpsph.model import host_fields
 from warpsph.phases.base import CHECK_EVERY, Stopped
@@ -104,9 +105,9 @@ def floor_warnings(values, dx: float) -> list[str]:
     """A line when a safety phase's ``limit_equilibrium`` says that Bishop's factor rises by more than
     ``REFINED_CHANGE`` with the arcs kept above the rows of particles that do not shear (the soil's lowest,
     a stronger soil's): the critical circle runs along them, so the strength-reduction factor reads high."""
-    if len(values or []) < 6 or not values[5] / values[0] - 1.0 > REFINED_CHANGE:
+    change = values[5] / values[0] - 1.0 if len(values or []) > 5 else math.nan  # a resumed older record: 5
+    if not change > REFINED_CHANGE:
         return []
-    change = values[5] / values[0] - 1.0
     return [f"the critical slip circle runs along the bottom of the soil or the top of a stronger soil, whose rows of "
             f"particles do not shear: Bishop's factor is {values[0]:.3f} there and {values[5]:.3f} a row above "
             f"them ({100 * change:+.1f} %), so the factor of safety reads high; set simulation.dx to "
@@ -385,7 +386,7 @@ class SafetyAnalysis(Equilibrium):
             region = (where.min[0], where.max[0], where.min[1])
             circle = critical_circle(soil, region)
         if circle is None:
-            record.limit_equilibrium = [math.nan] * 6
+            record.limit_equilibrium = [math.nan] * LIMIT_EQUILIBRIUM_COLUMNS
             return
         record.limit_equilibrium = [circle.bishop, circle.spencer, *circle.centre, circle.radius,
                                     above_the_floor(soil, region, circle)]  # fmt: skip

@@ -219,8 +219,8 @@ class PressureProjection:
                     self.roughness], dev)  # fmt: skip
         launch_rows(self.k["assemble"], n,
                [h, real(dt), wp.float64(self.scale), n, nl.offsets, nl.indices, si.particle_q, m.particle_origin,
-                sol.real_volume, si.particle_density, m.particle_material, pw.water, so.particle_v, self.div_v_star, self.p_old,
-                m.particle_ghost_source, m.particle_ghost_planes, self.planes, self.dirichlet, self.value,
+                sol.real_volume, si.particle_density, m.particle_material, pw.water, so.particle_v, self.div_v_star,
+                self.p_old, m.particle_ghost_source, m.particle_ghost_planes, self.planes, self.dirichlet, self.value,
                 self.face_factor, self.momentum_image, rf.smallest_eigenvalue,
                 real(self.exterior_threshold), wp.float64(self.lattice_sum), self.roughness, self.near_surface,
                 wp.float64(self.settings.stabilisation), wp.float64(self.settings.interior_stabilisation),
