@@ -211,3 +211,104 @@ def test_a_reservoir_beside_no_surface_is_refused_in_a_mechanical_phase(tmp_path
     text = LAYER.replace('level = 3.0\n', 'level = 3.0\nregion = { min = [5, -1, -1], max = [6, 9, 1] }\n')
     with pytest.raises(SceneError, match=r"reservoirs.lake.region.*touches no surface"):
         run_scene(parse_scene(text, name="lake"), tmp_path)
+
+
+SLOPE = """
+[simulation]
+dim = 2
+dx = 0.5
+gravity = [0, -9.81, 0]
+
+[effects]
+plasticity = true
+{effects}
+
+[materials.soil]
+model = "viscoplastic"
+density = {density}
+youngs_modulus = 5e7
+poisson_ratio = 0.3
+yield_function = "mohr_coulomb"
+cohesion = 5e3
+friction_angle = 25.0
+{water}
+
+[[bodies]]
+name = "slope"
+material = "soil"
+shape = "polygon"
+vertices = [[0, 0], [14, 0], [14, 5], [9, 5], [4, 1], [0, 1]]
+
+[[boundaries]]
+name = "base"
+kind = "fixed"
+axis = "y"
+position = 0
+side = "min"
+
+[[boundaries]]
+name = "front"
+kind = "slip"
+axis = "x"
+position = 0
+side = "min"
+
+[[boundaries]]
+name = "back"
+kind = "slip"
+axis = "x"
+position = 14
+side = "max"
+
+[output]
+fields = ["stress"]
+usd = false
+xdmf = false
+
+[[phases]]
+name = "initial"
+kind = "k0"
+{flow}
+[[phases]]
+name = "gravity"
+kind = "equilibrium"
+{held}
+"""
+SUBMERGED = dict(effects="pore_water = true", density=2000.0,
+                 water="porosity = 0.4\nhydraulic_conductivity = 1e-6\nwater_bulk_modulus = inf",
+                 flow='\n[[reservoirs]]\nname = "lake"\nlevel = 7.0\n\n[[phases]]\nname = "flow"\nkind = "flow"\n'
+                      "steady = true\n",
+                 held='pore_pressure = "fixed"')  # fmt: skip
+BUOYANT = dict(effects="", density=1000.0, water="", flow="", held="")
+
+
+def test_a_submerged_slope_under_held_pore_pressures_is_loaded_as_its_buoyant_dry_twin(tmp_path):
+    """Under still water the skeleton carries γ_sat − γ_w: held at rest, a slope under a lake stands with the
+    effective stresses of the same slope dry at the buoyant density, at its face and toe too (the free
+    surface pushes as a dry one does while the pore pressures are held, docs/method.md, *Drained free
+    surfaces*), so a strength reduction under water finds the factor of safety of the buoyant slope."""
+    fields = {}
+    for name, keys in (("submerged", SUBMERGED), ("buoyant", BUOYANT)):
+        run_scene(parse_scene(SLOPE.format(**keys), name=name), tmp_path / name)
+        with h5py.File(tmp_path / name / "results.h5", "r") as f:
+            frame = f["frames"][sorted(f["frames"])[-1]]
+            order = np.argsort(frame["id"][...])
+            fields[name] = frame["stress"][...][order]
+    wet, dry = fields["submerged"], fields["buoyant"]
+    largest = np.abs(dry[:, 1]).max()
+    assert np.abs(wet - dry).max() < 0.02 * largest  # 0.85 %; with the drained surface's extrapolation 5.9 %
+
+
+@pytest.mark.slow
+def test_a_submerged_slope_has_the_factor_of_safety_of_its_buoyant_dry_twin(tmp_path):
+    """Strength reduction under still water, the pore pressures held, against the same slope dry at
+    γ_sat − γ_w: limit equilibrium gives the two one factor, and strength reduction must too, within the
+    two searches' resolution."""
+    safety = '\n[[phases]]\nname = "safety"\nkind = "safety"\nfactor_tolerance = 0.02\n'
+    factors = {}
+    for name, keys in (("submerged", SUBMERGED), ("buoyant", BUOYANT)):
+        text = SLOPE.format(**keys) + safety + keys["held"] + "\n"
+        summary = run_scene(parse_scene(text, name=name), tmp_path / name)
+        factors[name] = summary.phases[-1]["criterion"]
+    print(f"\nfactor of safety submerged {factors['submerged']:.3f}, buoyant and dry {factors['buoyant']:.3f}")
+    assert factors["submerged"] == pytest.approx(factors["buoyant"], abs=2 * 0.02)

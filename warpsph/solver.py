@@ -328,7 +328,15 @@ class Solver:
 
     @property
     def _water_on_surface(self):
-        return self.model.spec.real(self.projection.water_on_surface if self.projection is not None else 0.0)
+        """1 where a free surface pushes with its point's own total stress σ′ − pI less the weight of the soil
+        above (an impermeable surface, and any surface while the pore pressures are held: the skeleton is
+        then loaded as dry soil is, under the seepage forces held), 0 where a drained surface pushes with the
+        total stress extrapolated to it (its pore pressure a Dirichlet row of the projection; docs/method.md,
+        *Drained free surfaces*)."""
+        if self.projection is None:
+            return self.model.spec.real(0.0)
+        held = self.config.fixed_pore_pressure
+        return self.model.spec.real(1.0 if held else self.projection.water_on_surface)
 
     @property
     def _water_density(self):

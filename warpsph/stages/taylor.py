@@ -159,7 +159,8 @@ def taylor_kernels(spec: Spec):
         positions are those at tⁿ; the gradients of v and σ′ (G, the divergence, the surface normal
         and weights) are taken on the configuration x + mid·v [s] where those fields live, through
         F⁻ᵀ = (I + mid G)⁻¹ (mid = 0: at tⁿ); the pore pressure's stays at tⁿ (the full step's is the
-        lagged pⁿ)."""
+        lagged pⁿ). Also returned, for the ledger: the band's term, the water's load in it, the pore
+        pressure's force (−∇p and the band's pressure part) and that pressure part."""
         v = vec3(zero, zero, zero)
         G = mat33(zero)
         surface_sum = vec3(zero, zero, zero)
@@ -216,6 +217,7 @@ def taylor_kernels(spec: Spec):
         normal_dir = A * e
         band = vec3(zero, zero, zero)
         water = vec3(zero, zero, zero)
+        band_pressure = vec3(zero, zero, zero)
         if in_surface_band and wp.length(normal_dir) > zero:
             n = -wp.normalize(normal_dir)
             depth = depth_below_surface(x, start, end, nbr, xs, n, beyond_sources)
@@ -223,8 +225,10 @@ def taylor_kernels(spec: Spec):
             if wp.static(pore_water):
                 drained = water_on_surface == zero
             traction = total * n
+            on_surface = water_on_surface * real(p)  # the pore pressure the traction carries
             if drained:
                 traction = stress_on_drained_surface(depth, n, At, s, ds0, ds1, ds2, real(p), grad_p) * n
+                on_surface = real(p) + depth * wp.dot(grad_p, n)
             else:
                 traction -= weight_above(depth, n, unit_weight)
             load = vec3(zero, zero, zero)
@@ -239,7 +243,8 @@ def taylor_kernels(spec: Spec):
             band = weight * traction
             water = weight * load
             div += band + water
-        return v, s, G, div, p, band, water
+            band_pressure = -(weight * on_surface) * n
+        return v, s, G, div, p, band, water, band_pressure - grad_p, band_pressure
 
     @wp.kernel(enable_backward=False, module="unique", name=f"half_step{variant}" if plasticity else None)
     def half_step(
@@ -284,8 +289,8 @@ def taylor_kernels(spec: Spec):
         lam, shear = elastic.lam[mat], elastic.shear[mat]
         rho = virt_density[i]
         body_force = skeleton_body_force(gravity, rho, water_density, mat)
-        v, s, G, div, p, _band, _water = fit_fields(x, offsets[i], offsets[i + 1], nbr, real_q, real_volume,
-                                                    real_v,
+        v, s, G, div, p, _band, _water, _pressure, _band_pressure = fit_fields(
+                                     x, offsets[i], offsets[i + 1], nbr, real_q, real_volume, real_v,
                                      real_stress, h, virt_fit.c[i], virt_fit.inv_den[i], virt_fit.minv[i],
                                      full_vector(virt_fit.e[i]), real_fit,
                                      virt_fit.smallest_eigenvalue[i] < surface_threshold, real_p, zero,
@@ -357,12 +362,14 @@ def taylor_kernels(spec: Spec):
         spacing: real,
         surface_weight: real,
         surface_water: SurfaceWater,
+        pressure_held: int,
         mass: wp.array(dtype=real),
         ledger: wp.array2d(dtype=wp.float64),
     ):
         """``surface_per_share``: 1 to divide the surface term by the particle's share (off with large
         deformation, docs/method.md); ``spacing``: the lattice spacing Δx [m], the virtual points lying half
         of it inside a free surface whose real particles lie on it; ``surface_weight`` as in the half step;
+        ``pressure_held``: 1 with the pore pressures held, whose force is then booked as a load's work;
         ``ledger``: the particle's row gains the step's energies (:mod:`warpsph.stages.energy`)."""
         a = first + wp.tid()
         x = q[a]
@@ -370,7 +377,8 @@ def taylor_kernels(spec: Spec):
         lam, shear = elastic.lam[mat], elastic.shear[mat]
         rho = density[a]
         body_force = skeleton_body_force(gravity, rho, water_density, mat)
-        v_half, s_half, G, div, p, band, water = fit_fields(x, offsets[a], offsets[a + 1], nbr, virt_q, virt_volume,
+        v_half, s_half, G, div, p, band, water, pressure_force, band_pressure = fit_fields(
+                                            x, offsets[a], offsets[a + 1], nbr, virt_q, virt_volume,
                                             virt_v_half, virt_stress_half, h, real_fit.c[a], real_fit.inv_den[a],
                                             real_fit.minv[a], full_vector(real_fit.e[a]), virt_fit,
                                             real_fit.smallest_eigenvalue[a] < surface_threshold,
@@ -391,6 +399,8 @@ def taylor_kernels(spec: Spec):
             div = vec3(zero, zero, zero)
             band = vec3(zero, zero, zero)
             water = vec3(zero, zero, zero)
+            pressure_force = vec3(zero, zero, zero)
+            band_pressure = vec3(zero, zero, zero)
             v_half = v[a]
         d, spin = split_velocity_gradient(G)
         s = stress[a]
@@ -410,7 +420,8 @@ def taylor_kernels(spec: Spec):
             stored = psi(s_new, lam, shear) - psi(s, lam, shear)
             ledger[a, wp.static(column[PLASTIC])] += wp.float64(vol * (dt * wp.ddot(half * (s + s_new), d) - stored))
         if wp.static(pore_water):
-            ledger[a, wp.static(column[PORE_WATER])] += wp.float64(vol * real(p) * dt * wp.trace(d))
+            if pressure_held == 0:
+                ledger[a, wp.static(column[PORE_WATER])] += wp.float64(vol * real(p) * dt * wp.trace(d))
         s_law = s_new
         if free:
             v_half = v[a] + half * dt * body_force
@@ -448,6 +459,12 @@ def taylor_kernels(spec: Spec):
         # the surface band's term: the water's pressure on the surface is a load; the rest, the weak
         # traction-free condition (and the weight above the point), a stabilisation of the surface
         ledger[a, wp.static(column[BOUNDARIES])] += wp.float64(dt * vol * wp.dot(v_mean, water))
+        if wp.static(pore_water):
+            if pressure_held != 0:
+                # held pore pressures are a load: the work of their force, the surface band's pressure
+                # part taken off the band's stabilisation
+                ledger[a, wp.static(column[PORE_WATER])] += wp.float64(dt * vol * wp.dot(v_mean, pressure_force))
+                band -= band_pressure
         ledger[a, wp.static(column[STABILISATION])] -= wp.float64(dt * vol * wp.dot(v_mean, band))
         v_out[a] = v_force + d_v
         if velocity_filter > zero and not free:
@@ -548,7 +565,7 @@ def launch_full_step(model, config, nl, si, so, dt: float, *, virtual_volume, vi
                  real_shift,
                  own, real(config.stress_filter), real(config.velocity_filter),
                  int(not config.large_deformation), real(config.dx), surface_weight,
-                 surface_water, m.particle_mass, ledger], m.device)  # fmt: skip
+                 surface_water, int(config.fixed_pore_pressure), m.particle_mass, ledger], m.device)  # fmt: skip
 
 
 def launch_real_motion(model, si, so, dt: float, real_motion) -> None:
