@@ -35,9 +35,9 @@ def test_a_flood_lowers_the_dykes_factor_of_safety(tmp_path):
     page = TUTORIAL.read_text()
     flood = next(phase for phase in results.phases if phase["name"] == "flood_safety")["criterion"]
     for factor in (low, flood, high):
-        assert f"factor of safety {factor:.3f} ± " in page
-    assert (round(low, 2), round(flood, 2), round(high, 2)) == (1.89, 1.86, 1.79)
-    for phase in results.phases:  # limit equilibrium beside each factor, measured 5-9 % below it
+        assert f"factor of safety {factor:.4g} ± " in page  # as `warpsph run` prints it
+    assert (round(low, 2), round(flood, 2), round(high, 2)) == (1.91, 1.91, 1.72)
+    for phase in results.phases:  # limit equilibrium beside each factor, measured 4-9 % below it
         if phase["kind"] == "safety":
             assert 0.88 < phase["limit_equilibrium"][0] / phase["criterion"] < 0.97
     for name, p in zip(("low_water_seepage", "flood", "high_water_seepage"), under_slope):

@@ -148,8 +148,8 @@ def taylor_kernels(spec: Spec):
         """Velocity, effective stress, velocity gradient G[k,j] = ∂v_j/∂x_k, divergence of the total
         stress σ′ − pI and pore pressure fitted at x from the sources; in the surface band the
         divergence gains the weak normal-traction term of σ′ − w pI (w = ``water_on_surface``: 1 at an
-        impermeable free surface, 0 at a drained one, whose zero pore pressure the fitted gradient
-        already takes from its Dirichlet rows), divided by the point's share of the sources' fits
+        impermeable free surface or any while the pore pressures are held, 0 at a drained one, whose
+        zero pore pressure the fitted gradient already takes from its Dirichlet rows), divided by the point's share of the sources' fits
         when ``per_share`` (the full step, whose real particles carry the mass). At a drained free
         surface the term takes the total stress extrapolated to the surface, ``beyond_sources`` [m]
         past the outermost source (``stress_on_drained_surface``), not the point's own; at a dry or
