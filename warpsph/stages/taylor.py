@@ -149,14 +149,14 @@ def taylor_kernels(spec: Spec):
         stress σ′ − pI and pore pressure fitted at x from the sources; in the surface band the
         divergence gains the weak normal-traction term of σ′ − w pI (w = ``water_on_surface``: 1 at an
         impermeable free surface or any while the pore pressures are held, 0 at a drained one, whose
-        zero pore pressure the fitted gradient already takes from its Dirichlet rows), divided by the point's share of the sources' fits
-        when ``per_share`` (the full step, whose real particles carry the mass). At a drained free
-        surface the term takes the total stress extrapolated to the surface, ``beyond_sources`` [m]
-        past the outermost source (``stress_on_drained_surface``), not the point's own; at a dry or
-        impermeable one the point's own traction less the weight of the soil between it and the
-        surface (``weight_above``; unit_weight = ρb [N/m³] with the point's body force, buoyant under
-        pore water, zero with large deformation). The sources'
-        positions are those at tⁿ; the gradients of v and σ′ (G, the divergence, the surface normal
+        zero pore pressure the fitted gradient already takes from its Dirichlet rows), divided by the
+        point's share of the sources' fits when ``per_share`` (the full step, whose real particles carry
+        the mass). At a drained free surface the term takes the total stress extrapolated to the
+        surface, ``beyond_sources`` [m] past the outermost source (``stress_on_drained_surface``), not
+        the point's own; at a dry or impermeable one the point's own traction less the weight of the
+        soil between it and the surface (``weight_above``; unit_weight = ρb [N/m³] with the point's
+        body force, buoyant under pore water, zero with large deformation). The sources' positions are
+        those at tⁿ; the gradients of v and σ′ (G, the divergence, the surface normal
         and weights) are taken on the configuration x + mid·v [s] where those fields live, through
         F⁻ᵀ = (I + mid G)⁻¹ (mid = 0: at tⁿ); the pore pressure's stays at tⁿ (the full step's is the
         lagged pⁿ). Also returned, for the ledger: the band's term, the water's load in it, the pore
@@ -419,9 +419,6 @@ def taylor_kernels(spec: Spec):
             # the law's work V σ̄:Δt d less the elastic energy it stores: the plastic dissipation
             stored = psi(s_new, lam, shear) - psi(s, lam, shear)
             ledger[a, wp.static(column[PLASTIC])] += wp.float64(vol * (dt * wp.ddot(half * (s + s_new), d) - stored))
-        if wp.static(pore_water):
-            if pressure_held == 0:
-                ledger[a, wp.static(column[PORE_WATER])] += wp.float64(vol * real(p) * dt * wp.trace(d))
         s_law = s_new
         if free:
             v_half = v[a] + half * dt * body_force
@@ -465,6 +462,8 @@ def taylor_kernels(spec: Spec):
                 # part taken off the band's stabilisation
                 ledger[a, wp.static(column[PORE_WATER])] += wp.float64(dt * vol * wp.dot(v_mean, pressure_force))
                 band -= band_pressure
+            else:
+                ledger[a, wp.static(column[PORE_WATER])] += wp.float64(vol * real(p) * dt * wp.trace(d))
         ledger[a, wp.static(column[STABILISATION])] -= wp.float64(dt * vol * wp.dot(v_mean, band))
         v_out[a] = v_force + d_v
         if velocity_filter > zero and not free:
