@@ -36,10 +36,10 @@ def test_a_flood_lowers_the_dykes_factor_of_safety(tmp_path):
     flood = next(phase for phase in results.phases if phase["name"] == "flood_safety")["criterion"]
     for factor in (low, flood, high):
         assert f"factor of safety {factor:.4g} ± " in page  # as `warpsph run` prints it
-    assert (round(low, 2), round(flood, 2), round(high, 2)) == (1.91, 1.91, 1.72)
-    for phase in results.phases:  # limit equilibrium beside each factor, measured 4-9 % below it
+    assert (round(low, 2), round(flood, 2), round(high, 2)) == (1.75, 1.72, 1.61)
+    for phase in results.phases:  # limit equilibrium beside each factor, measured within 3 % of it
         if phase["kind"] == "safety":
-            assert 0.88 < phase["limit_equilibrium"][0] / phase["criterion"] < 0.97
+            assert 0.97 < phase["limit_equilibrium"][0] / phase["criterion"] < 1.03
     for name, p in zip(("low_water_seepage", "flood", "high_water_seepage"), under_slope):
         assert f"{name}: pore pressure under the landward slope {p / 1e3:.2f} kPa" in page
     assert f"river inflow at steady high water {-flows['discharge_river'][-1] * 86400:.2f} m³/day" in page

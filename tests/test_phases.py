@@ -1,7 +1,9 @@
 """Staged analysis: phases run in order, each from the state the one before left.
 
 - The K0 procedure sets layered ground's geostatic stresses at once: σ′_v = Σγh from the top of
-  each particle's column, σ′_h = K0 σ′_v; a slope's toe carries its own cover, not the crest's.
+  each particle's column, σ′_h = K0 σ′_v; a slope's toe carries its own cover, not the crest's. With
+  pore water σ′_v is the total weight less Bishop's χ p_w, so ground with a water table below its
+  surface starts at rest.
 - Gravity loading (an equilibrium phase with local damping, from zero stress) brings elastic
   layered ground to rest: the base reaction equals the weight, σ′_h/σ′_v = ν/(1 − ν), σ′_v = Σγh.
 - The results record the phases; frames carry their phase; a run stopped inside a phase and resumed
@@ -12,6 +14,7 @@
 from __future__ import annotations
 
 import dataclasses
+import math
 
 import numpy as np
 import pytest
@@ -62,6 +65,32 @@ def test_k0_procedure_sets_layered_geostatic_stresses(tmp_path):
     assert np.max(np.abs(stress[:, 1] - overburden(y))[deep] / np.abs(overburden(y)[deep])) < 1e-9
     k0 = np.where(y >= MIDDLE - 1e-9, 0.5, 0.6)
     assert np.allclose(stress[:, 0], k0 * stress[:, 1]) and np.allclose(stress[:, 2], k0 * stress[:, 1])
+
+
+@pytest.mark.parametrize("suction", ["ignored", "counted"])
+def test_k0_procedure_under_a_water_table_leaves_the_ground_at_rest(tmp_path, suction):
+    """σ′_v = σ_v + χ p_w: 3 m of loam with its water table 1.5 m down carries its total weight less
+    χ p_w (χ = 1 below the water table; above it 0, or with suction counted S_e of van Genuchten's
+    curve), so the equilibrium phase that follows, holding the pore pressures, finds the ground at rest."""
+    loam = dict(density=2000.0, porosity=0.4, hydraulic_conductivity=1e-6, water_bulk_modulus=math.inf,
+                retention="van_genuchten", retention_alpha=3.6, retention_n=1.56, residual_saturation=0.18)
+    scene = layered_ground([Phase("initial", kind="k0")])
+    scene.phases.append(Phase("gravity", kind="equilibrium", pore_pressure="fixed"))
+    scene.materials = {name: dataclasses.replace(mat, **loam) for name, mat in scene.materials.items()}
+    scene.effects = dataclasses.replace(scene.effects, pore_water=True)
+    scene.pressure = dataclasses.replace(scene.pressure, water_table=1.5, suction=suction)
+    scene.output.fields = ["stress", "displacement"]
+    summary = warpsph.run_scene(scene.validate(), tmp_path, device="cpu")
+    results = warpsph.load_results(tmp_path / "results.h5")
+    k0, rest = results.frame(0), results.frame(-1)
+    y = k0["position"][:, 1]
+    p = 1000.0 * G * (1.5 - y)
+    suction_head = np.maximum(-p, 0.0) / (1000.0 * G)
+    chi = (1.0 + (3.6 * suction_head) ** 1.56) ** (1.0 / 1.56 - 1.0) if suction == "counted" else p >= 0.0
+    expected = -2000.0 * G * (y.max() - y) + chi * p
+    assert np.max(np.abs(k0["stress"][:, 1] - expected)) < 1e-9 * 2000.0 * G * TOP
+    assert summary.phases[1]["outcome"] == "converged" and summary.phases[1]["steps"] <= 20
+    assert np.max(np.abs(rest["displacement"])) < 1e-9
 
 
 def test_geostatic_depth_is_measured_up_each_column():

@@ -15,7 +15,7 @@ import numpy as np
 import warp as wp
 
 from warpsph.fields import voigt_to_tensor
-from warpsph.initial_stress import geostatic_stress, geostatic_unit_weight
+from warpsph.initial_stress import geostatic_stress, geostatic_unit_weight, overburden
 from warpsph.lattice import fill_body, fill_cells, lattice_codes
 from warpsph.environment import default_device, init_warp
 from warpsph.model import PLANE_FIXED, PLANE_SLIP, PLANE_TRACTION, PLANE_VELOCITY, Model, State
@@ -101,9 +101,9 @@ def _geostatic(material, points: np.ndarray, gravity, dx: float, pore_water: boo
     """Geostatic effective stress (…,3,3) [Pa] of one body's ``points``: σ′_yy = −(ρ − ρ_w) g depth below
     the body's highest particle in each one's column (ρ_w only with pore water: the buoyant weight),
     σ′_xx = σ′_zz = K0 σ′_yy."""
-    weight = geostatic_unit_weight(material, gravity, pore_water)
     n = len(points)
-    return geostatic_stress(points, np.full(n, weight), np.full(n, material.earth_pressure_at_rest), dx)
+    vertical = overburden(points, np.full(n, geostatic_unit_weight(material, gravity, pore_water)), dx)
+    return geostatic_stress(vertical, np.full(n, material.earth_pressure_at_rest))
 
 
 def plastic_materials(spec: Spec, materials, device: str) -> wp.array:

@@ -11,9 +11,11 @@ from __future__ import annotations
 import numpy as np
 
 
-def overburden(points: np.ndarray, unit_weight: np.ndarray, dx: float) -> np.ndarray:
+def overburden(points: np.ndarray, unit_weight: np.ndarray, dx: float,
+               surface_load: np.ndarray | None = None) -> np.ndarray:
     """Vertical stress σ_v [Pa] (tension positive, so ≤ 0) at the (N,3) lattice ``points`` from the
-    weight of the particles above each in its column; ``unit_weight`` (N,) is γ [N/m³] per particle.
+    weight of the particles above each in its column; ``unit_weight`` (N,) is γ [N/m³] per particle, and
+    ``surface_load`` (N,) [Pa], if given, a pressure on each column's top, read at its highest particle.
 
     A column is split into layers, runs of one unit weight from the top down: inside a layer
     σ_v = −(W + γ (y_top − y)) with W the weight above the layer's top particle, so a uniform column
@@ -30,6 +32,9 @@ def overburden(points: np.ndarray, unit_weight: np.ndarray, dx: float) -> np.nda
     layer_start = np.flatnonzero(~same_column | np.r_[False, gamma[1:] != gamma[:-1]])
     layer_end = np.r_[layer_start[1:], n]
     above = np.zeros(len(layer_start))  # W of each layer
+    if surface_load is not None:
+        tops = ~same_column[layer_start]
+        above[tops] = surface_load[order[layer_start[tops]]]
     for k in range(1, len(layer_start)):
         first = layer_start[k]
         if same_column[first]:
@@ -48,11 +53,10 @@ def geostatic_unit_weight(material, gravity, pore_water: bool) -> float:
     return (material.density - (material.water_density if pore_water else 0.0)) * (-gravity[1])
 
 
-def geostatic_stress(points: np.ndarray, unit_weight: np.ndarray, k0: np.ndarray, dx: float) -> np.ndarray:
-    """(N,3,3) geostatic effective stress [Pa]: σ′_yy = :func:`overburden` of the (buoyant) unit weights
-    ``unit_weight`` (N,) [N/m³], σ′_xx = σ′_zz = K0 σ′_yy with ``k0`` (N,) per particle."""
-    vertical = overburden(points, unit_weight, dx)
-    out = np.zeros((len(points), 3, 3))
+def geostatic_stress(vertical: np.ndarray, k0: np.ndarray) -> np.ndarray:
+    """(N,3,3) geostatic effective stress [Pa]: σ′_yy = ``vertical`` (N,) [Pa] (:func:`overburden`),
+    σ′_xx = σ′_zz = K0 σ′_yy with ``k0`` (N,) per particle."""
+    out = np.zeros((len(vertical), 3, 3))
     out[:, 0, 0] = out[:, 2, 2] = k0 * vertical
     out[:, 1, 1] = vertical
     return out

@@ -47,6 +47,8 @@ class PoreWaterModel:
     """Body force b [m/s²] (the scene's gravity)."""
     retention: RetentionLaws
     """Each material's water retention law, α, n and S_r (:class:`~warpsph.physics.retention.RetentionLaws`)."""
+    suction: int
+    """1 where held pore pressures and the K0 procedure count suction (``pressure.suction = "counted"``), else 0."""
     plane_drainage: wp.array
     """(P,) int32: 0 impermeable, 1 drained, 2 inflow."""
     plane_pressure: wp.array
@@ -167,6 +169,7 @@ def build_pore_water(scene: Scene, planes_drainage: list, top: float, vec3, grow
         retention=retention_laws(arr([RETENTION[m.retention] for m in mats], wp.int32),
                                  arr([m.retention_alpha for m in mats]), arr([m.retention_n for m in mats]),
                                  arr([m.residual_saturation for m in mats])),
+        suction=int(scene.pressure.suction == "counted"),
         plane_drainage=arr([DRAINAGE[d.kind] for d in planes_drainage] or [0], wp.int32),
         plane_pressure=arr([d.pore_pressure for d in planes_drainage] or [0.0]),
         plane_head=arr([nan if d.head is None else d.head for d in planes_drainage] or [nan]),

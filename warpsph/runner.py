@@ -229,8 +229,9 @@ class Run:
         return self.calculation.split
 
     def clear_guards(self) -> None:
-        """Forget what the run guards marked (a safety trial's start and end)."""
+        """Forget what the run guards and the neighbour lists marked (a safety trial's start and end)."""
         self.guard.clear()
+        self.solver.forget_neighbour_overflow()
         self._checked = None
 
     @property
@@ -290,7 +291,7 @@ class Run:
         self.resumed = True
 
     def checkpoint(self) -> None:
-        self._check()  # nothing is written from a step the guards marked
+        self.check_guards()  # nothing is written from a step the guards marked
         if "energy_start" in self.loop:
             self.loop["energy_error"], self.loop["energy_windows"] = self.energy_guard.progress_so_far()
         arrays = {name: arr.numpy() for name, arr in self.state.arrays().items()}
@@ -323,7 +324,7 @@ class Run:
             self.results.append_series(name, self.step_index, self.time, value)
         if not self.probes.probes:
             return
-        self._check()  # nothing is written from a step the guards marked
+        self.check_guards()  # nothing is written from a step the guards marked
         rows = None if fields is not None else self.probes.rows
         if rows is not None and self._probe_index is None and len(rows):  # once per phase
             self._probe_index = wp.array(rows.astype(np.int32), dtype=wp.int32, device=self.model.device)
@@ -347,7 +348,7 @@ class Run:
     def write_frame(self, content: FrameContent | None = None, **attrs) -> None:
         """Write a frame of the current state, or the ``content`` of one made elsewhere (a safety trial's
         last state; ``attrs``: extra attributes of the frame)."""
-        self._check()  # nothing is written from a step the guards marked
+        self.check_guards()  # nothing is written from a step the guards marked
         fields, frame, balance = content or self.frame()
         self._room_for(fields)
         self._sample_probes(fields)
@@ -376,7 +377,7 @@ class Run:
         if self.solver.damping is not None:
             self.solver.damping.read()
 
-    def _check(self) -> None:
+    def check_guards(self) -> None:
         """Read what the run guards marked on the device since the last read; stop the run at the first
         step they marked, naming what was wrong then, or at the first step after the last read where a
         neighbour list overflowed (once a step)."""
@@ -429,7 +430,7 @@ class Run:
         if k % GUARD_WINDOW == 0 and "energy_start" in self.loop:
             self.energy_guard.mark(self.state, self.step_index)
         if k % CHECK_EVERY == 0:
-            self._check()
+            self.check_guards()
             if self.phase.kind != "safety" and "energy_start" in self.loop:  # a trial's is written with its frame
                 self._energy_series(self.balance_since_start())
         self._record_pressure_solve()

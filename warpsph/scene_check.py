@@ -317,6 +317,7 @@ def _check_pressure(pressure: PressureSolver) -> None:
     check_range("pressure.jacobi_weight", pressure.jacobi_weight, Interval(0.0, 1.0, hi_closed=True))
     check_choice("pressure.on_failure", pressure.on_failure, ("warn", "stop"))
     check_choice("pressure.free_surface", pressure.free_surface, ("drained", "impermeable"))
+    check_choice("pressure.suction", pressure.suction, ("ignored", "counted"))
     for key in ("stabilisation", "interior_stabilisation"):
         check_range(f"pressure.{key}", getattr(pressure, key), Interval(0.0, 1.0, lo_closed=True, hi_closed=True))
 

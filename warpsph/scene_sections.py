@@ -452,6 +452,10 @@ class PressureSolver:
     """Level y [m] of the hydrostatic reference, p = ρ_w g (water_table − y); None: the top of the bodies."""
     free_surface: str = "drained"
     """Free surfaces found from the particles: "drained" (p = 0) or "impermeable"."""
+    suction: str = "ignored"
+    """Pore pressures below zero where equilibrium and safety phases hold them and in the K0 procedure:
+    "ignored" (the total stress carries max(p_w, 0), as Bishop's method and SLOPE/W take them) or
+    "counted" (Bishop's χ p_w, χ = S_e). A consolidation phase's held iterates always count them."""
     stabilisation: float = 1.0
     """Weight θ in [0, 1] of the pore-pressure roughness damping within reach of a free surface: there
     the Δt/ρ part of the projection acts on pⁿ − θ(pⁿ − Πpⁿ), Πp the linear fit of p over the

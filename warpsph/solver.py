@@ -183,6 +183,13 @@ class Solver:
                 f"a point had more neighbours than its list held (particles crowded by more than "
                 f"{NeighbourList.GROWTH - 1:.0%} within {NEIGHBOUR_CHECK_EVERY} steps, which a stable run does not do)")
 
+    def forget_neighbour_overflow(self) -> None:
+        """Read and forget the neighbour lists' marks (a safety trial's end: the crowding of a trial that ran
+        away ended with it); a list that overflowed sizes its room anew at its next build."""
+        self._unchecked = 0
+        for nl in self.neighbour_lists:
+            nl.check()
+
     # -- two-set Taylor-SPH -------------------------------------------------------------------
     def _init_two_set(self) -> None:
         m, s, dev = self.model, self.model.spec, self.model.device
@@ -381,17 +388,17 @@ class Solver:
             self.hold_pore_pressure(si)
         return self.held_pressure
 
-    def hold_pore_pressure(self, state: State) -> None:
+    def hold_pore_pressure(self, state: State, suction: int | None = None) -> None:
         """Fixed pore pressures: hold those of ``state`` from the next step on (a consolidation step's
-        new iterate)."""
+        new iterate), counting suction where ``suction`` is 1 (None: as ``pressure.suction`` says)."""
         m, pw = self.model, self.model.pore
         if self.held_pressure is None:
             self.held_pressure = wp.clone(state.particle_pore_pressure)
         else:
             wp.copy(self.held_pressure, state.particle_pore_pressure)
         launch_rows(groundwater_kernels(m.spec)["bishop_excess"], m.particle_count,
-                    [state.particle_q, m.particle_material, pw.water, pw.retention, state.particle_pore_pressure,
-                     self.held_pressure],
+                    [state.particle_q, m.particle_material, pw.water, pw.retention,
+                     pw.suction if suction is None else suction, state.particle_pore_pressure, self.held_pressure],
                     m.device)  # fmt: skip
 
     # -- collocated baseline --------------------------------------------------------------------

@@ -35,7 +35,7 @@ class Consolidation(Flow):
         run = self.run
         run.loop["time"] = t
         run.scratch.assign(run.state)
-        run.solver.hold_pore_pressure(run.state)
+        run.solver.hold_pore_pressure(run.state, suction=1)  # the split's iterates: the water's own tension
         run.loop.pop("ratio", None)
         converged, _ratio = self.skeleton.equilibrate(None, run.step_index, output=False)
         return converged, run.state

@@ -425,9 +425,11 @@ class SafetyAnalysis(Equilibrium):
             converged, ratio = self.equilibrate(progress, first, output=False, judge=judge)
             moved, energy = largest_displacement(run.state.particle_q, positions), self.kinetic_energy
             why = CONVERGED_WHY if converged else judge.why
+            frame = run.frame()._replace(balance=run.balance_since_start()) if math.isfinite(moved) else None
+            run.check_guards()  # the marks of its last steps and of its frame's neighbour lists are the trial's
+            run.solver.check_neighbours()
         except SimulationError:
-            ratio, moved, energy, why = math.inf, math.inf, math.inf, RAN_AWAY
-        frame = run.frame()._replace(balance=run.balance_since_start()) if math.isfinite(moved) else None
+            ratio, moved, energy, why, frame = math.inf, math.inf, math.inf, RAN_AWAY, None
         end = run.state.host_copy() if why == CONVERGED_WHY and phase.incremental else None  # later trials' start
         steps = run.step_index - first
         run.state.assign_host(start)

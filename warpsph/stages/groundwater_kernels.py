@@ -192,10 +192,11 @@ def groundwater_kernels(spec: Spec):
     @wp.kernel(enable_backward=False, module="unique")
     def bishop_excess(
         first: int, q: wp.array(dtype=vec3), material: wp.array(dtype=wp.int32), water: Water,
-        retention: RetentionLaws, p: wp.array(dtype=f64), out: wp.array(dtype=f64),
+        retention: RetentionLaws, suction: int, p: wp.array(dtype=f64), out: wp.array(dtype=f64),
     ):  # fmt: skip
         """The excess pressure whose total is Bishop's χ p_w, χ = S_e (1 at p_w ≥ 0 and in saturated
-        soil): the pore pressure the total stress σ′ − χ p_w I carries."""
+        soil; 0 under suction unless ``suction`` is 1): the pore pressure the total stress σ′ − χ p_w I
+        carries."""
         a = first + wp.tid()
         mat = material[a]
         rho_w = water.density[mat]
@@ -203,6 +204,8 @@ def groundwater_kernels(spec: Spec):
         total = p[a] + hydro
         s, _slope, _kr = material_retention_state(retention, mat, rho_w * f64(wp.length(water.gravity)), total)
         chi = (s - retention.residual[mat]) / (f64(1.0) - retention.residual[mat])
+        if suction == 0 and total < f64(0.0):
+            chi = f64(0.0)
         out[a] = chi * total - hydro
 
     @wp.kernel(enable_backward=False, module="unique")

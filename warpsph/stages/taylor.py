@@ -143,7 +143,7 @@ def taylor_kernels(spec: Spec):
         sigmas: wp.array(dtype=Any), h: real, c: used_vector, inv_den: real, Minv: block, e: vec3,
         src: Fits, in_surface_band: bool, ps: wp.array(dtype=wp.float64), mid: real,
         water_on_surface: real, per_share: bool, beyond_sources: real, unit_weight: vec3,
-        surface_water: SurfaceWater, rho_w: real,
+        surface_water: SurfaceWater, rho_w: real, held_surface: real,
     ):  # fmt: skip
         """Velocity, effective stress, velocity gradient G[k,j] = ∂v_j/∂x_k, divergence of the total
         stress σ′ − pI and pore pressure fitted at x from the sources; in the surface band the
@@ -155,7 +155,10 @@ def taylor_kernels(spec: Spec):
         surface, ``beyond_sources`` [m] past the outermost source (``stress_on_drained_surface``), not
         the point's own; at a dry or impermeable one the point's own traction less the weight of the
         soil between it and the surface (``weight_above``; unit_weight = ρb [N/m³] with the point's
-        body force, buoyant under pore water, zero with large deformation). The sources' positions are
+        body force, buoyant under pore water, zero with large deformation). With ``held_surface`` 1 (pore
+        pressures held) that traction takes the pore pressure extrapolated to the surface and the weight the
+        effective stress carries, ρb less the pore pressure's gradient, so that ground above the hydrostatic
+        reference's level is loaded as dry ground is, whatever the slope of its face. The sources' positions are
         those at tⁿ; the gradients of v and σ′ (G, the divergence, the surface normal
         and weights) are taken on the configuration x + mid·v [s] where those fields live, through
         F⁻ᵀ = (I + mid G)⁻¹ (mid = 0: at tⁿ); the pore pressure's stays at tⁿ (the full step's is the
@@ -230,7 +233,13 @@ def taylor_kernels(spec: Spec):
                 traction = stress_on_drained_surface(depth, n, At, s, ds0, ds1, ds2, real(p), grad_p) * n
                 on_surface = real(p) + depth * wp.dot(grad_p, n)
             else:
-                traction -= weight_above(depth, n, unit_weight)
+                carried = unit_weight
+                if wp.static(pore_water):
+                    if held_surface > zero:
+                        on_surface = real(p) + depth * wp.dot(grad_p, n)
+                        traction = s * n - on_surface * n
+                        carried = unit_weight - held_surface * grad_p
+                traction -= weight_above(depth, n, carried)
             load = vec3(zero, zero, zero)
             if wp.static(pore_water):  # the water against the surface (surface_water.py)
                 at = x + depth * n
@@ -279,10 +288,12 @@ def taylor_kernels(spec: Spec):
         continuity: real,
         surface_weight: real,
         surface_water: SurfaceWater,
+        pressure_held: int,
     ):
         """``continuity``: 1 to advance the virtual densities by the divergence fitted here, 0 when
         ``virtual_continuity`` advances them after the full step; ``surface_weight``: 1 to take the
-        weight of the soil above a surface band's point off its traction, 0 not to (large deformation)."""
+        weight of the soil above a surface band's point off its traction, 0 not to (large deformation);
+        ``pressure_held``: 1 with the pore pressures held."""
         i = first + wp.tid()
         x = virt_q[i]
         mat = virt_material[i]
@@ -295,7 +306,8 @@ def taylor_kernels(spec: Spec):
                                      full_vector(virt_fit.e[i]), real_fit,
                                      virt_fit.smallest_eigenvalue[i] < surface_threshold, real_p, zero,
                                      water_on_surface, False, zero, surface_weight * rho * body_force, surface_water,
-                                     point_water_density(water_density, mat))  # fmt: skip
+                                     point_water_density(water_density, mat),
+                                     real(pressure_held) * surface_weight)  # fmt: skip
         d, spin = split_velocity_gradient(G)
         hdt = half * dt
         if wp.static(pore_water):
@@ -384,7 +396,8 @@ def taylor_kernels(spec: Spec):
                                             real_fit.smallest_eigenvalue[a] < surface_threshold,
                                             virt_p, half * dt, water_on_surface, surface_per_share != 0,
                                             half * spacing, surface_weight * rho * body_force, surface_water,
-                                            point_water_density(water_density, mat))  # fmt: skip
+                                            point_water_density(water_density, mat),
+                                            real(pressure_held) * surface_weight)  # fmt: skip
         # gradients on the midpoint configuration (Hughes–Winget): on the configuration at tⁿ a rigid
         # rotation's v^{n+½} has the divergence −Δt ω² (a spinning disc's rim drifted outward by
         # π ωΔt R per turn), and the force of its stress at t^{n+½}, turned by ωΔt/2 since tⁿ, missed
@@ -539,7 +552,8 @@ def launch_half_step(model, config, nl, si, so, dt: float, *, real_volume, real_
                  m.material_elastic, virtual_v, virtual_stress, so.virtual_q,
                  so.virtual_density, pressure, water_density, virtual_p,
                  si.particle_plastic_strain, m.material_plasticity, virtual_rate,
-                 real(1.0 if integrated_density else 0.0), surface_weight, surface_water],
+                 real(1.0 if integrated_density else 0.0), surface_weight, surface_water,
+                 int(config.fixed_pore_pressure)],
                 m.device)  # fmt: skip
 
 
