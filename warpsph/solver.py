@@ -391,15 +391,11 @@ class Solver:
     def hold_pore_pressure(self, state: State, suction: int | None = None) -> None:
         """Fixed pore pressures: hold those of ``state`` from the next step on (a consolidation step's
         new iterate), counting suction where ``suction`` is 1 (None: as ``pressure.suction`` says)."""
-        m, pw = self.model, self.model.pore
         if self.held_pressure is None:
             self.held_pressure = wp.clone(state.particle_pore_pressure)
         else:
             wp.copy(self.held_pressure, state.particle_pore_pressure)
-        launch_rows(groundwater_kernels(m.spec)["bishop_excess"], m.particle_count,
-                    [state.particle_q, m.particle_material, pw.water, pw.retention,
-                     pw.suction if suction is None else suction, state.particle_pore_pressure, self.held_pressure],
-                    m.device)  # fmt: skip
+        carried_pore_pressure(self.model, state, self.held_pressure, suction)
 
     # -- collocated baseline --------------------------------------------------------------------
     def _init_collocated(self) -> None:
@@ -447,6 +443,17 @@ class Solver:
         self._unchecked += 1
         if self._unchecked > NEIGHBOUR_CHECK_EVERY:
             self.check_neighbours()
+
+
+def carried_pore_pressure(model: Model, state: State, out: wp.array, suction: int | None = None) -> None:
+    """``out`` (N,) [Pa]: the excess pressure whose total is the part χ p_w of ``state``'s pore pressure that
+    the total stress σ′ − χ p_w I carries (χ = 1 at p_w ≥ 0; under suction Bishop's S_e where ``suction`` is
+    1, 0 where it is 0, None: as ``pressure.suction`` says)."""
+    pw = model.pore
+    launch_rows(groundwater_kernels(model.spec)["bishop_excess"], model.particle_count,
+                [state.particle_q, model.particle_material, pw.water, pw.retention,
+                 pw.suction if suction is None else suction, state.particle_pore_pressure, out],
+                model.device)  # fmt: skip
 
 
 def warm_up(solver: Solver, guard, state: State, scratch: State, t: float, dt: float) -> float:

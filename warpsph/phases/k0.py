@@ -6,10 +6,9 @@ import numpy as np
 import warp as wp
 
 from warpsph.initial_stress import geostatic_stress, geostatic_unit_weight, overburden
-from warpsph.launching import launch_rows
 from warpsph.phases.base import Calculation
 from warpsph.phases.staging import CONVERGED
-from warpsph.stages.groundwater_kernels import groundwater_kernels
+from warpsph.solver import carried_pore_pressure
 
 
 class K0Procedure(Calculation):
@@ -42,9 +41,7 @@ class K0Procedure(Calculation):
         positions = state.particle_q.numpy()[:n].astype(float)
         hydrostatic = pw.hydrostatic(positions, pw.water.density.numpy()[material])
         held = wp.zeros(n, dtype=wp.float64, device=m.device)  # the excess whose total is χ p_w
-        launch_rows(groundwater_kernels(m.spec)["bishop_excess"], n,
-                    [state.particle_q, m.particle_material, pw.water, pw.retention, pw.suction,
-                     state.particle_pore_pressure, held], m.device)  # fmt: skip
+        carried_pore_pressure(m, state, held)
         total = state.particle_pore_pressure.numpy()[:n] + hydrostatic
         weight = overburden(m.particle_x0, unit_weight, m.dx, surface_load=np.maximum(total, 0.0))
         return weight + held.numpy() + hydrostatic
