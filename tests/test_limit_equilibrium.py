@@ -28,14 +28,15 @@ def acads(x):
     return np.where(x <= 10, 5.0, np.where(x >= 30, 15.0, 5 + (x - 10) / 2))
 
 
-def particles(surface, width: float, dx: float, cohesion: float, phi: float, pore=None):
+def particles(surface, width: float, dx: float, cohesion: float, phi: float, pore=None, suction: bool = False):
     """The ground of the particles of a lattice ``dx`` under ``surface`` from x = 0 to ``width``."""
     xs, ys = np.meshgrid(np.arange(dx / 2, width, dx), np.arange(dx / 2, 40.0, dx), indexing="ij")
     inside = ys < surface(xs)
     p = np.stack([xs[inside], ys[inside], np.zeros(inside.sum())], axis=1)
     n = len(p)
     u = None if pore is None else pore(p[:, 0], p[:, 1])
-    return ground(p, np.full(n, GAMMA * dx * dx), np.full(n, cohesion), np.full(n, math.tan(math.radians(phi))), u, dx)
+    return ground(p, np.full(n, GAMMA * dx * dx), np.full(n, cohesion), np.full(n, math.tan(math.radians(phi))), u, dx,
+                  suction=suction)
 
 
 def continuous_bishop(surface, cohesion: float, phi: float, circle, pore=None, n: int = 20000) -> float:
@@ -260,3 +261,16 @@ def test_a_factor_that_rises_off_the_rows_that_do_not_shear_is_warned_about():
                                                                                     "less (now 0.5 m)")  # fmt: skip
     assert floor_warnings([1.0, 1.0, 0.0, 0.0, 1.0, 1.019], 0.5) == [] == floor_warnings([1.0] * 5, 0.5)
     assert floor_warnings([1.0, 1.0, 0.0, 0.0, 1.0, math.nan], 0.5) == []
+
+
+
+@pytest.mark.parametrize("suction", [False, True])
+def test_suction_counted_adds_its_share_to_the_normal_stress(suction):
+    """A uniform pore pressure −s: ignored (the default) it counts as zero; counted (Bishop's χ p_w of the
+    effective stress) it adds s tan φ′ to every slice's strength: the factor of the same ground with c′ +
+    s tan φ′ and no pore pressure (to round-off)."""
+    s, c, phi = 5e3, 10e3, 20.0
+    wet = critical_circle(particles(gl, 44.0, 0.5, c, phi, lambda x, y: np.full(len(x), -s), suction))
+    same = critical_circle(particles(gl, 44.0, 0.5, c + (s * math.tan(math.radians(phi)) if suction else 0.0), phi))
+    print(f"\nBishop {wet.bishop:.4f}")
+    assert wet.bishop == pytest.approx(same.bishop, rel=1e-12)

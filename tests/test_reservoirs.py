@@ -280,6 +280,30 @@ def test_ground_above_the_water_table_under_held_pore_pressures_is_loaded_as_dry
     assert np.abs(wet - dry)[above].max() < 1e-2 * largest  # 0.37 %; 2.7 % with the point's own pressure
 
 
+def test_limit_equilibrium_counts_suction_where_the_phase_does(tmp_path):
+    """The safety phase's limit equilibrium takes the pore pressures its effective stress carries: above the
+    water table of Griffiths & Lane's slope (1 m up its foundation) none where suction is ignored (the default),
+    χ p_w where it is counted (χ = S_e: 1 for the saturated retention, less for van Genuchten's loam), which
+    raises Bishop's factor."""
+    from warpsph.runner import Run
+
+    loam = 'retention = "van_genuchten"\nretention_alpha = 3.6\nretention_n = 1.56\nresidual_saturation = 0.18\n'
+    factors = {}
+    for name, suction, retention in (("ignored", "ignored", ""), ("loam", "counted", loam),
+                                     ("saturated", "counted", "")):  # fmt: skip
+        text = (griffiths_and_lane("water_table", safety=True)
+                .replace("water_table = 1.0\n", f"water_table = 1.0\nsuction = {suction!r}\n")
+                .replace("hydraulic_conductivity = 1e-6\n", "hydraulic_conductivity = 1e-6\n" + retention))  # fmt: skip
+        scene = parse_scene(text, name=name)
+        scene.phases = [phase for phase in scene.phases if phase.kind == "safety"]
+        run = Run(scene, tmp_path / name)
+        run.calculation.limit_equilibrium(run.records[-1])
+        factors[name] = run.records[-1].limit_equilibrium[0]
+    print(f"\nBishop's factor with suction ignored {factors['ignored']:.3f}, counted in loam {factors['loam']:.3f}, "
+          f"counted saturated {factors['saturated']:.3f}")
+    assert factors["ignored"] + 0.01 < factors["loam"] < factors["saturated"] - 0.01
+
+
 @pytest.mark.slow
 def test_griffiths_and_lanes_slope_under_water_has_the_factor_of_safety_of_its_buoyant_dry_twin(tmp_path):
     """Strength reduction under 14 m of still water, the pore pressures held, against the same slope dry

@@ -36,9 +36,9 @@ def strength(material) -> tuple[float, float]:
 class Ground:
     """A 2D model's particles in vertical strips ``width`` [m] wide, ``SUBSLICES`` to a column of
     particles: the slices of every circle. Per strip, ascending: the particles' heights [m], the weight
-    at and above each (one entry more, the last 0) [N/m], and each particle's cohesion [Pa], tan φ′ and pore pressure
-    [Pa] (compression positive, suction taken as 0); per strip, its surface's height [m] and the pressure
-    of free water standing on it [Pa] (a reservoir)."""
+    at and above each (one entry more, the last 0) [N/m], and each particle's cohesion [Pa], tan φ′ and pore
+    pressure [Pa] (compression positive, negative only where suction counts); per strip, its surface's height
+    [m] and the pressure of free water standing on it [Pa] (a reservoir)."""
 
     x: np.ndarray
     width: float
@@ -65,14 +65,18 @@ class Ground:
 
 def ground(position: np.ndarray, weight: np.ndarray, cohesion: np.ndarray, tan_phi: np.ndarray,
            pore_pressure: np.ndarray | None, width: float, water_unit_weight: float = 9.81e3,
-           free_water=None) -> Ground:  # fmt: skip
+           free_water=None, suction: bool = False) -> Ground:  # fmt: skip
     """The columns of particles at ``position`` (N,3) [m] (x across, y up) with ``weight`` (N,) [N/m],
     ``cohesion`` (N,) [Pa] (inf: a body that does not yield), ``tan_phi`` (N,) and ``pore_pressure``
     (N,) [Pa] or None, ``width`` the particle spacing [m]; ``water_unit_weight`` ρ_w g [N/m³];
     ``free_water(x, y)`` the pressure [Pa] of free water standing on the ground's surface at x, y (C,)
-    [m], or None where there is none."""
+    [m], or None where there is none; ``suction``: a negative pore pressure (Bishop's χ p_w under
+    suction) adds to the base's normal stress, as the effective stress σ′ = σ − χ p_w takes it (False:
+    it counts as zero, Bishop's method's and SLOPE/W's convention)."""
     column = np.round((position[:, 0] - position[:, 0].min()) / width).astype(np.int64)
-    pore = np.zeros(len(position)) if pore_pressure is None else np.maximum(pore_pressure, 0.0)
+    pore = np.zeros(len(position)) if pore_pressure is None else np.asarray(pore_pressure, dtype=float)
+    if not suction:
+        pore = np.maximum(pore, 0.0)
     xs, ys, above, weights, cs, ts, us, tops = [], [], [], [], [], [], [], []
     strips = (np.arange(SUBSLICES) + 0.5) / SUBSLICES - 0.5
     order = np.lexsort((position[:, 1], column))  # by column, then upwards

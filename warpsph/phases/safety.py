@@ -12,6 +12,7 @@ from pathlib import Path
 from typing import NamedTuple
 
 import numpy as np
+import warp as wp
 
 from warpsph.builder import plastic_materials
 from warpsph.cluster import dask_client
@@ -27,6 +28,7 @@ from warpsph.phases.limit_equilibrium import above_the_floor, critical_circle, g
 from warpsph.phases.search import FactorSearch, reduced_strength
 from warpsph.phases.staging import CONVERGED, NOT_CONVERGED
 from warpsph.scene import FAILURE_DISPLACEMENT
+from warpsph.solver import carried_pore_pressure
 from warpsph.stages.energy import energy_unit
 from warpsph.stages.surface_water import free_water
 
@@ -379,10 +381,17 @@ class SafetyAnalysis(Equilibrium):
             weight = m.particle_mass.numpy()[:n].astype(float) * g_norm
             where = self.phase.slip_region
             standing = None  # the reservoirs' pressure on the ground's surface, at their levels now
-            if m.pore is not None and m.pore.reservoirs:
-                standing = free_water(m.pore.reservoirs, m.pore.surface_water.level.numpy(), water * g_norm)
-            soil = ground(fields["position"], weight, strengths[material, 0], strengths[material, 1],
-                          fields.get("pore_pressure"), m.dx, water * g_norm, standing)  # fmt: skip
+            pore, suction = fields.get("pore_pressure"), False
+            if m.pore is not None:
+                if m.pore.reservoirs:
+                    standing = free_water(m.pore.reservoirs, m.pore.surface_water.level.numpy(), water * g_norm)
+                suction = bool(m.pore.suction)
+                if suction:  # the part χ p_w the total stress carries
+                    carried = wp.zeros(n, dtype=wp.float64, device=m.device)
+                    carried_pore_pressure(m, run.state, carried)
+                    pore = carried.numpy() + (pore - run.state.particle_pore_pressure.numpy()[:n])
+            soil = ground(fields["position"], weight, strengths[material, 0], strengths[material, 1], pore, m.dx,
+                          water * g_norm, standing, suction)  # fmt: skip
             region = (where.min[0], where.max[0], where.min[1])
             circle = critical_circle(soil, region)
         if circle is None:
