@@ -263,7 +263,6 @@ def test_a_factor_that_rises_off_the_rows_that_do_not_shear_is_warned_about():
     assert floor_warnings([1.0, 1.0, 0.0, 0.0, 1.0, math.nan], 0.5) == []
 
 
-
 @pytest.mark.parametrize("suction", [False, True])
 def test_suction_counted_adds_its_share_to_the_normal_stress(suction):
     """A uniform pore pressure −s: ignored (the default) it counts as zero; counted (Bishop's χ p_w of the

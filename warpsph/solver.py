@@ -445,15 +445,19 @@ class Solver:
             self.check_neighbours()
 
 
-def carried_pore_pressure(model: Model, state: State, out: wp.array, suction: int | None = None) -> None:
-    """``out`` (N,) [Pa]: the excess pressure whose total is the part χ p_w of ``state``'s pore pressure that
-    the total stress σ′ − χ p_w I carries (χ = 1 at p_w ≥ 0; under suction Bishop's S_e where ``suction`` is
-    1, 0 where it is 0, None: as ``pressure.suction`` says)."""
+def carried_pore_pressure(model: Model, state: State, out: wp.array | None = None,
+                          suction: int | None = None) -> wp.array:  # fmt: skip
+    """``out`` (N,) float64 [Pa] (allocated where None), returned: the excess pressure whose total is the part
+    χ p_w of ``state``'s pore pressure that the total stress σ′ − χ p_w I carries (χ = 1 at p_w ≥ 0; under
+    suction Bishop's S_e where ``suction`` is 1, 0 where it is 0, None: as ``pressure.suction`` says)."""
     pw = model.pore
+    if out is None:
+        out = wp.zeros(model.particle_count, dtype=wp.float64, device=model.device)
     launch_rows(groundwater_kernels(model.spec)["bishop_excess"], model.particle_count,
                 [state.particle_q, model.particle_material, pw.water, pw.retention,
                  pw.suction if suction is None else suction, state.particle_pore_pressure, out],
                 model.device)  # fmt: skip
+    return out
 
 
 def warm_up(solver: Solver, guard, state: State, scratch: State, t: float, dt: float) -> float:

@@ -3,7 +3,6 @@
 from __future__ import annotations
 
 import numpy as np
-import warp as wp
 
 from warpsph.initial_stress import geostatic_stress, geostatic_unit_weight, overburden
 from warpsph.phases.base import Calculation
@@ -40,11 +39,10 @@ class K0Procedure(Calculation):
         pw, n = m.pore, m.particle_count
         positions = state.particle_q.numpy()[:n].astype(float)
         hydrostatic = pw.hydrostatic(positions, pw.water.density.numpy()[material])
-        held = wp.zeros(n, dtype=wp.float64, device=m.device)  # the excess whose total is χ p_w
-        carried_pore_pressure(m, state, held)
+        held = carried_pore_pressure(m, state).numpy()  # the excess whose total is χ p_w
         total = state.particle_pore_pressure.numpy()[:n] + hydrostatic
         weight = overburden(m.particle_x0, unit_weight, m.dx, surface_load=np.maximum(total, 0.0))
-        return weight + held.numpy() + hydrostatic
+        return weight + held + hydrostatic
 
     def calculate(self, progress) -> str:
         return CONVERGED

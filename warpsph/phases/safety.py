@@ -12,7 +12,6 @@ from pathlib import Path
 from typing import NamedTuple
 
 import numpy as np
-import warp as wp
 
 from warpsph.builder import plastic_materials
 from warpsph.cluster import dask_client
@@ -386,10 +385,9 @@ class SafetyAnalysis(Equilibrium):
                 if m.pore.reservoirs:
                     standing = free_water(m.pore.reservoirs, m.pore.surface_water.level.numpy(), water * g_norm)
                 suction = bool(m.pore.suction)
-                if suction:  # the part χ p_w the total stress carries
-                    carried = wp.zeros(n, dtype=wp.float64, device=m.device)
-                    carried_pore_pressure(m, run.state, carried)
-                    pore = carried.numpy() + (pore - run.state.particle_pore_pressure.numpy()[:n])
+                if suction:  # the part χ p_w the total stress carries: its excess plus the hydrostatic pressure
+                    hydrostatic = pore - run.state.particle_pore_pressure.numpy()[:n]
+                    pore = carried_pore_pressure(m, run.state).numpy() + hydrostatic
             soil = ground(fields["position"], weight, strengths[material, 0], strengths[material, 1], pore, m.dx,
                           water * g_norm, standing, suction)  # fmt: skip
             region = (where.min[0], where.max[0], where.min[1])
