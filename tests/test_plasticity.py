@@ -53,7 +53,7 @@ def _kernels(spec: Spec, yield_name: str):
     potential_value, potential_gradient = fn.potential_value, fn.potential_gradient
     perzyna_strain_rate, substep_count = fn.perzyna_strain_rate, fn.substep_count
     relaxation_step, source_increment = fn.relaxation_step, fn.source_increment
-    tension_cutoff = fn.tension_cutoff
+    tension_cutoff, material_update = fn.tension_cutoff, fn.material_update
 
     @wp.kernel(enable_backward=False, module="unique")
     def cutoff(sigma: wp.array(dtype=mat33), m: Material, out: wp.array(dtype=mat33), removed: wp.array(dtype=real)):
@@ -120,7 +120,28 @@ def _kernels(spec: Spec, yield_name: str):
             sigma[k + 1] = s
             eps[k + 1] = e
 
-    kernels = {"evaluate": evaluate, "relax": relax, "cutoff": cutoff}
+    @wp.kernel(enable_backward=False, module="unique")
+    def update(
+        sigma0: mat33,
+        dt: real,
+        lam: real,
+        shear: real,
+        m: Material,
+        sigma: wp.array(dtype=mat33),
+        removed: wp.array(dtype=real),
+    ):
+        """sigma[k] after k intervals dt of material_update at zero strain rate and spin; removed[k]
+        the mean stress its cut-offs removed in interval k."""
+        s = sigma0
+        e = real(0.0)
+        sigma[0] = s
+        for k in range(sigma.shape[0] - 1):
+            s, de, r = material_update(s, e, mat33(real(0.0)), dt, lam, shear, m)
+            e = e + de
+            removed[k] = r
+            sigma[k + 1] = s
+
+    kernels = {"evaluate": evaluate, "relax": relax, "cutoff": cutoff, "update": update}
     if fn.radial_return is not None:
         radial_return = fn.radial_return
 
@@ -576,3 +597,29 @@ def test_tension_cutoff_caps_the_mean_stress_at_the_apex(name):
     np.testing.assert_allclose(hydrostatic[beyond], 0.0, atol=1e-9 * COHESION)  # on the apex
     assert np.all(evaluate(spec, name, m, mean[~beyond, None, None] * np.eye(3))["f"] <= 1e-9 * COHESION)
     np.testing.assert_array_equal(cut[~beyond], sigma[~beyond])
+
+
+@pytest.mark.parametrize("integrator", ["rk4", "rk2"])
+def test_a_trial_beyond_the_apex_with_a_small_deviator_is_cut_off_before_it_relaxes(integrator):
+    """Mohr–Coulomb with ψ = 0 (c = 20 kPa, φ = 30°, γ = 10/s, F₀ = c), the state a tension crack leaves on a
+    rough base: a trial 80 Pa of mean stress beyond the apex with a 45 Pa deviator, over intervals of 2 ms.
+    The update cuts the excess first, so the relaxation sees only the deviator's small overstress, which
+    decays: the deviator and F never grow. Relaxed before the cut, the excess's F turned the deviator through
+    zero and out to 600 Pa and back, interval after interval (the potential's axis has no flow direction at
+    ψ = 0)."""
+    spec = Spec(integrator=integrator)
+    m = material(spec, "mohr_coulomb", dilatancy=0.0, fluidity=10.0)
+    apex = 0.95 * COHESION / math.tan(FRICTION)  # the rounded surface's apex mean stress, f = 0.05
+    sigma0 = (apex + 80.0) * np.eye(3) + np.array([[20.0, 40.0, 0.0], [40.0, -20.0, 0.0], [0.0, 0.0, 0.0]])
+    steps = 20
+    sigma = wp.zeros(steps + 1, dtype=spec.mat33, device=DEVICE)
+    removed = wp.zeros(steps, dtype=spec.real, device=DEVICE)
+    inputs = [spec.mat33(sigma0), spec.real(2e-3), spec.real(LAMBDA), spec.real(SHEAR), m, sigma, removed]
+    wp.launch(_kernels(spec, "mohr_coulomb")["update"], dim=1, inputs=inputs, device=DEVICE)
+    sigma, removed = sigma.numpy(), removed.numpy()
+    deviator = sigma - np.trace(sigma, axis1=1, axis2=2)[:, None, None] / 3.0 * np.eye(3)
+    q = np.sqrt(0.5 * np.sum(deviator**2, axis=(1, 2)))
+    f = evaluate(spec, "mohr_coulomb", m, sigma[1:])["f"]
+    np.testing.assert_allclose(removed[0], 80.0, rtol=1e-3)  # the excess over the apex, less F's deviator share
+    assert np.all(np.diff(q) <= 1e-9 * q[0]) and q[-1] > 0.0, q
+    assert 0.0 < f[0] < 0.05 * q[0] and np.all(np.diff(f) <= 0.0) and f[-1] < 0.1 * f[0], f  # relaxes to the surface

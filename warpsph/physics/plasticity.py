@@ -136,6 +136,8 @@ class PlasticFunctions(NamedTuple):
     tension_cutoff: Callable
     """(σ, ε̄, m) → (σ with its mean stress capped at the apex of the yield surface [Pa], the mean
     stress removed [Pa]) (frictional surfaces; von Mises: σ unchanged, 0)."""
+    material_update: Callable
+    """(σ_trial, ε̄, W, dt, λ, G, m) → (σ [Pa], Δε̄, mean stress the cut-offs removed [Pa]) over dt [s]."""
 
 
 @functools.cache
@@ -360,6 +362,17 @@ def plastic_functions(spec: Spec, yield_name: str) -> PlasticFunctions:
                 removed = excess
         return out, removed
 
+    @wp.func
+    def material_update(sigma: mat33, eps: real, spin: mat33, dt: real, lam: real, shear: real, m: Material):
+        """(σ [Pa], Δε̄, mean stress removed [Pa]) after dt [s] from the elastic trial σ: the tension
+        beyond the apex cut off, the source over dt, then cut off again. Cut first because the crack
+        opens at once: left to the relaxation, a trial beyond the apex with a small deviator has F of
+        the excess but ∂G of the deviator alone (a cylinder's axis at ψ = 0), and turns it through zero."""
+        s, removed = tension_cutoff(sigma, eps, m)
+        d_s, d_eps = source_increment(s, eps, spin, dt, lam, shear, m)
+        out, more = tension_cutoff(s + d_s, eps + d_eps, m)
+        return out, d_eps, removed + more
+
     radial_return = None
     if yield_name == "von_mises":
 
@@ -380,5 +393,5 @@ def plastic_functions(spec: Spec, yield_name: str) -> PlasticFunctions:
     return PlasticFunctions(
         invariants, lode_angle, yield_value, yield_gradient, potential_value, potential_gradient,
         perzyna_strain_rate, relaxation_rate, substep_count, relaxation_step, source_increment, radial_return,
-        tension_cutoff,
+        tension_cutoff, material_update,
     )  # fmt: skip

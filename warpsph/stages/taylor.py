@@ -61,8 +61,7 @@ def taylor_kernels(spec: Spec):
     # the plastic arrays' element types; a dry variant takes unused real arrays (passed None)
     PlasticMaterial = material_struct(spec) if plasticity else real
     plastic = plastic_functions(spec, spec.yield_function) if plasticity else None
-    plastic_source = plastic.source_increment if plasticity else None
-    tension_cutoff = plastic.tension_cutoff if plasticity else None
+    material_update = plastic.material_update if plasticity else None
     variant = f"_plastic_{spec.yield_function}" if plasticity else ""
 
     @wp.func
@@ -318,8 +317,7 @@ def taylor_kernels(spec: Spec):
             eps = fit_value(x, offsets[i], offsets[i + 1], nbr, real_q, real_volume, real_plastic_strain,
                             h, virt_fit.c[i], virt_fit.inv_den[i], virt_fit.minv[i])  # fmt: skip
             s_trial = s + hdt * hooke_rate(d, lam, shear)
-            d_s, _d_eps = plastic_source(s_trial, eps, spin, hdt, lam, shear, plastic_material[mat])
-            s_half, crack = tension_cutoff(s_trial + d_s, eps, plastic_material[mat])
+            s_half, _d_eps, crack = material_update(s_trial, eps, spin, hdt, lam, shear, plastic_material[mat])
             # the crack opened over Δt/2 by the rate d opens twice as much over the Δt the density takes
             opening = two * crack / (lam + two_thirds * shear)
         else:
@@ -420,9 +418,8 @@ def taylor_kernels(spec: Spec):
         opening = zero
         if wp.static(plasticity):
             s_trial = s + dt * hooke_rate(d, lam, shear)
-            d_s, d_eps = plastic_source(s_trial, plastic_strain[a], spin, dt, lam, shear,
-                                        plastic_material[mat])  # fmt: skip
-            s_new, crack = tension_cutoff(s_trial + d_s, plastic_strain[a] + d_eps, plastic_material[mat])
+            s_new, d_eps, crack = material_update(s_trial, plastic_strain[a], spin, dt, lam, shear,
+                                                  plastic_material[mat])  # fmt: skip
             opening = crack / (lam + two_thirds * shear)  # volumetric strain of the crack [-]
             plastic_strain_out[a] = plastic_strain[a] + d_eps
         else:
