@@ -20,8 +20,9 @@ def test_a_rapid_drawdown_lowers_the_upstream_slopes_factor_of_safety(tmp_path):
     assert drawn < full - 0.2
     index = {name: i for i, name in enumerate(p["name"] for p in results.phases)}
     bishop = results.phases[index["drawdown_safety"]]["limit_equilibrium"][0]
-    # measured 1.094 against 1.167, the circle upstream too; the trial at 1.125 fails by the upstream slope
-    # creeping near its crest (docs/scenes.md, *Limit equilibrium*), and the factor reads low by 6 %
+    # measured 1.094 against 1.167, the circle upstream too; the trial at 1.125 fails by the upstream wedge
+    # creeping along the rock, and with psi = 0 the factor reads low by 6 % (1.219 with psi = phi; docs/scenes.md,
+    # *Limit equilibrium*)
     assert drawn == pytest.approx(bishop, rel=0.07)
     first_failed = next(i for i in range(len(results.times)) if results.frame_phases[i] == index["drawdown_safety"]
                         and results.frame_attrs(i).get("outcome") == 0)  # fmt: skip
