@@ -255,8 +255,8 @@ def column_collapse(context: Context) -> Outcome:
         f"(basal friction 30°) and collapses to a deposit. The experiments of Lube et al. (2005) put the runout "
         f"(L_f − L0)/L0 at 1.2 a = {LUBE_RUNOUT:g} for a < 2.3. The front, the largest x of any particle, is "
         f"read at {COLUMN_REST:g} s, when the bulk has come to rest: {measured}. The runs stop there; "
-        f"tests/test_column_collapse.py runs on to 2 s and checks that the deposit stays at rest. The tolerance, 25 %, is the test's: the front is one particle "
-        f"(± Δx is ± 0.1 in the ratio at Δx = 0.025 m) and a degree of basal friction moves the runout by about 0.1."
+        f"tests/test_column_collapse.py runs on to 2 s and checks that the deposit stays at rest. The tolerance, "
+        f"25 %, is the test's: the front is one particle (± Δx is ± 0.1 in the ratio at Δx = 0.025 m) and a degree of basal friction moves the runout by about 0.1."
     )  # fmt: skip
     checks = [Check(f"runout (L_f − L0)/L0 at {COLUMN_REST:g} s, Δx = {r.dx:g} m", r.runout, LUBE_RUNOUT, 0.25,
                     source="Lube et al. 2005: 1.2 a") for r in runs]  # fmt: skip
